@@ -1,0 +1,143 @@
+# dualsig: dual finite element analysis for Signorini problems.  See README.md.
+#
+#   make            build lib/libdualsig.a, include/*.mod and bin/dualsig (optimised)
+#   make run        install missing Debian packages, build, run data/default.nml
+#   make check      install missing Debian packages, build the debug library, run the test suite
+#   make bench      benchmarks (see README, "Benchmarks")
+#   make BUILD=debug        the checked build (-fcheck=all, FPE traps) into build/debug
+#   make FFLAGS='...'       override the compiler flags
+#   make check PFUNIT_DIR=/path/to/pfunit/installed/PFUNIT-4.x   run the suite with real pFUnit
+SHELL := /bin/bash
+.DEFAULT_GOAL := all
+MAKEFLAGS += --no-print-directory
+
+ifeq ($(origin FC),default)
+FC := gfortran
+endif
+BUILD ?= release
+
+STD_FLAGS   := -std=f2018 -fimplicit-none -ffree-line-length-132
+OPT_FLAGS   := -O2 -funroll-loops
+DEBUG_FLAGS := -g -O0 -fcheck=all -Wall -Wextra -Wno-compare-reals -Wno-maybe-uninitialized \
+               -ffpe-trap=invalid,zero,overflow -fbacktrace
+ifeq ($(origin FFLAGS),undefined)
+  ifeq ($(BUILD),debug)
+    FFLAGS := $(DEBUG_FLAGS)
+  else
+    FFLAGS := $(OPT_FLAGS)
+  endif
+endif
+LIBS ?= -llapack -lblas
+
+# Debian packages the project needs (build, run and test).
+DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libsuitesparse-dev libmetis-dev python3
+
+BLD  := build/$(BUILD)
+SRCS := $(sort $(wildcard src/*.f90))
+OBJS := $(patsubst src/%.f90,$(BLD)/%.o,$(SRCS))
+
+ifeq ($(BUILD),release)
+  LIBDIR := lib
+  MODDIR := include
+  BINDIR := bin
+else
+  LIBDIR := $(BLD)
+  MODDIR := $(BLD)/mod
+  BINDIR := $(BLD)
+endif
+LIBRARY := $(LIBDIR)/libdualsig.a
+DRIVER  := $(BINDIR)/dualsig
+
+.PHONY: all lib run check check-lite deps bench clean distclean
+all: $(LIBRARY) $(DRIVER)
+lib: $(LIBRARY)
+
+$(sort $(BLD) $(MODDIR) $(LIBDIR) $(BINDIR)):
+	@mkdir -p $@
+
+# Module dependencies, derived from the "use" statements of src/*.f90.
+$(BLD)/deps.mk: $(SRCS) Makefile | $(BLD)
+	@for f in $(SRCS); do m=$$(basename $$f .f90); \
+	  for u in $$(sed -n 's/^ *use *\(, *intrinsic *::\)\? *\([A-Za-z0-9_]*\).*/\2/p' $$f | sort -u); do \
+	    if [ -f src/$$u.f90 ] && [ $$u != $$m ]; then echo "$(BLD)/$$m.o: $(BLD)/$$u.o"; fi; \
+	  done; done > $@
+-include $(BLD)/deps.mk
+
+$(BLD)/%.o: src/%.f90 | $(BLD) $(MODDIR)
+	$(FC) $(STD_FLAGS) $(FFLAGS) -J$(MODDIR) -I$(MODDIR) -c $< -o $@
+
+$(LIBRARY): $(OBJS) | $(LIBDIR)
+	@rm -f $@
+	ar rcs $@ $(OBJS)
+
+$(DRIVER): drivers/dualsig.f90 $(LIBRARY) | $(BINDIR)
+	$(FC) $(STD_FLAGS) $(FFLAGS) -I$(MODDIR) $< -o $@ $(LIBRARY) $(LIBS)
+
+# ---------------------------------------------------------------- set-up
+# Install the Debian packages that are missing; without root print the apt-get line and fail.
+deps:
+	@missing=""; \
+	for p in $(DEBIAN_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ] && [ "$$missing" = " python3" ] && command -v python3 >/dev/null; then missing=""; fi; \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	echo "dualsig: missing Debian packages:$$missing"; \
+	if [ "$$(id -u)" != 0 ]; then \
+	  echo "dualsig: run as root:  apt-get update && apt-get install -y --no-install-recommends$$missing"; \
+	  exit 1; \
+	fi; \
+	export DEBIAN_FRONTEND=noninteractive; \
+	apt-get update -qq && apt-get install -y -qq --no-install-recommends $$missing >/dev/null || { \
+	  echo "dualsig: apt-get install failed for:$$missing"; exit 1; }
+
+run: deps
+	@$(MAKE) all
+	@./bin/dualsig data/default.nml
+
+# ---------------------------------------------------------------- tests
+TEST_PF   := $(sort $(wildcard test/test_*.pf))
+TBLD      := build/test
+TEST_EXE  := $(TBLD)/dualsig_tests
+
+ifdef PFUNIT_DIR
+# Real pFUnit 4: the same .pf files through pFUnit's own preprocessor and runner.
+include $(PFUNIT_DIR)/include/PFUNIT.mk
+FFLAGS += $(PFUNIT_EXTRA_FFLAGS) -I$(CURDIR)/build/debug/mod
+dualsig_tests_TESTS := $(notdir $(TEST_PF))
+dualsig_tests_OTHER_LIBRARIES := $(CURDIR)/build/debug/libdualsig.a $(LIBS)
+dualsig_tests_OTHER_INCS := -I$(CURDIR)/build/debug/mod
+%.o: %.F90
+	$(FC) -c $(FFLAGS) $<
+check: deps
+	@$(MAKE) BUILD=debug all
+	@cd test && $(MAKE) -f ../Makefile PFUNIT_DIR=$(PFUNIT_DIR) dualsig_tests
+	@cd test && ./dualsig_tests
+$(eval $(call make_pfunit_test,dualsig_tests))
+else
+check: deps
+	@$(MAKE) BUILD=debug all
+	@$(MAKE) check-lite
+endif
+
+# The fallback runner: test/pfunit_lite.py translates the .pf subset into Fortran.
+check-lite:
+	@mkdir -p $(TBLD)
+	@python3 test/pfunit_lite.py --out-dir $(TBLD) $(TEST_PF)
+	@$(FC) $(STD_FLAGS) $(DEBUG_FLAGS) -Wno-unused-dummy-argument -J$(TBLD) -I$(TBLD) \
+	   -Ibuild/debug/mod test/lite/funit.f90 $(patsubst test/%.pf,$(TBLD)/%.F90,$(TEST_PF)) \
+	   $(TBLD)/pfunit_lite_main.F90 -o $(TEST_EXE) build/debug/libdualsig.a $(LIBS)
+	@DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./$(TEST_EXE)
+
+# ---------------------------------------------------------------- benchmarks
+bench: deps
+	@$(MAKE) all
+	@$(MAKE) -s bin/dualsig_bench
+	@./bin/dualsig_bench
+
+bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) | bin
+	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
+
+clean:
+	rm -rf build lib include bin
+distclean: clean

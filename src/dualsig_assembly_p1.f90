@@ -1,0 +1,95 @@
+!> Global assembly of P1 matrices and load vectors into CSR storage.
+!>
+!> The pattern comes from the mesh edges (node i couples with its edge neighbours), so
+!> assembly is linear in the number of triangles; element contributions are summed.
+module dualsig_assembly_p1
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: scalar_field
+  use dualsig_mesh, only: mesh_t
+  use dualsig_quadrature, only: tri_rule_t
+  use dualsig_elements_p1, only: p1_element_stiffness, p1_element_mass, p1_element_load
+  use dualsig_sparse, only: csr_t, csr_pattern_from_edges
+  implicit none
+  private
+
+  public :: assemble_stiffness, assemble_mass, assemble_p1_operator, assemble_load
+
+contains
+
+  !> Stiffness matrix K(i,j) = integral of grad(phi_i) . grad(phi_j)  (Section 2, A for P2).
+  subroutine assemble_stiffness(mesh, k)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(out) :: k
+    call assemble_p1_operator(mesh, 0.0_dp, k)
+  end subroutine assemble_stiffness
+
+  !> Mass matrix M(i,j) = integral of phi_i phi_j.
+  subroutine assemble_mass(mesh, m)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(out) :: m
+    real(dp) :: me(3, 3), xy(2, 3)
+    integer :: t
+    call csr_pattern_from_edges(mesh%nnode, mesh%edge_nodes, m)
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_element_mass(xy, me)
+      call add_element(m, mesh%tri(:, t), me)
+    end do
+  end subroutine assemble_mass
+
+  !> A = K + mass_coef * M: the matrix of the bilinear form (grad u, grad v) + c (u, v).
+  !> P1 of the paper uses c = 1 (A_ij = (phi_i, phi_j)_1), P2 uses c = 0, in which case
+  !> no mass matrix is computed.
+  subroutine assemble_p1_operator(mesh, mass_coef, a)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: mass_coef
+    type(csr_t), intent(out) :: a
+    real(dp) :: ke(3, 3), me(3, 3), xy(2, 3)
+    integer :: t
+    call csr_pattern_from_edges(mesh%nnode, mesh%edge_nodes, a)
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_element_stiffness(xy, ke)
+      if (mass_coef /= 0.0_dp) then
+        call p1_element_mass(xy, me)
+        ke = ke + mass_coef * me
+      end if
+      call add_element(a, mesh%tri(:, t), ke)
+    end do
+  end subroutine assemble_p1_operator
+
+  !> Load vector F(j) = (f, phi_j)_0 with the quadrature `rule` on every triangle.
+  subroutine assemble_load(mesh, f, rule, load)
+    type(mesh_t), intent(in) :: mesh
+    procedure(scalar_field) :: f
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(out) :: load(:)
+    real(dp) :: fe(3), xy(2, 3)
+    integer :: t
+    load = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_element_load(xy, f, rule, fe)
+      load(mesh%tri(:, t)) = load(mesh%tri(:, t)) + fe
+    end do
+  end subroutine assemble_load
+
+  !> Add the 3x3 element matrix ae on the global rows/columns `nodes` (pattern assumed).
+  pure subroutine add_element(a, nodes, ae)
+    type(csr_t), intent(inout) :: a
+    integer, intent(in) :: nodes(3)
+    real(dp), intent(in) :: ae(3, 3)
+    integer :: i, j, p, row
+    do i = 1, 3
+      row = nodes(i)
+      do j = 1, 3
+        do p = a%rowptr(row), a%rowptr(row + 1) - 1
+          if (a%col(p) == nodes(j)) then
+            a%val(p) = a%val(p) + ae(i, j)
+            exit
+          end if
+        end do
+      end do
+    end do
+  end subroutine add_element
+end module dualsig_assembly_p1

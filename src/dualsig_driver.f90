@@ -1,0 +1,308 @@
+!> Batch driver: runs every run of a namelist file through a sequence of meshes and
+!> writes one error table per run (aligned text `<output>.txt` and CSV `<output>.csv`).
+!>
+!> A run computes only what its scene needs: the mass matrix only for P1, error
+!> integrals only when the scene has an exact solution.  Output files are written under
+!> temporary names and renamed when the run is complete, so a failed run leaves no
+!> partial file and keeps earlier results.
+module dualsig_driver
+  use, intrinsic :: iso_fortran_env, only: int64, output_unit
+  use dualsig_kinds, only: dp
+  use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
+                            DS_WARN_NOT_CONVERGED
+  use dualsig_mesh, only: mesh_t, mesh_h
+  use dualsig_mesh_generate, only: mesh_rectangle, mesh_lshape, mesh_holed_square
+  use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
+  use dualsig_mesh_io, only: mesh_read_text
+  use dualsig_mesh_quality, only: mesh_quality_t, mesh_quality
+  use dualsig_quadrature, only: tri_rule_t, tri_rule
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, BOUND_FIXED
+  use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
+  use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble, &
+                                    PROBLEM_P1
+  use dualsig_scenes, only: scene_t, scene_lookup
+  use dualsig_estimate_errors, only: p1_error_norms
+  use dualsig_io_config, only: run_config_t, read_config_file, config_echo
+  use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
+                              table_write_text, table_write_csv, table_format_row, &
+                              table_format_header, observed_rate
+  use dualsig_io_files, only: file_commit, file_delete, temp_name, ensure_parent_dir
+  implicit none
+  private
+
+  public :: run_namelist_file, run_one, primal_columns
+
+  !> Degree of the quadrature for load vectors (>= 5 as required; Radon's rule).
+  integer, parameter :: load_degree = 5
+  !> Degree of the quadrature for integrals of the exact solution.
+  integer, parameter :: exact_degree = 16
+  !> Lanczos settings for the automatic SOR parameter.
+  integer, parameter :: lanczos_max_steps = 400
+  real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
+  !> The exact solutions of the catalogue live on the unit square; bounding-box tolerance.
+  real(dp), parameter :: domain_tol = 1.0e-12_dp
+
+  !> Columns of the error table ('#' marks integer columns).
+  character(len=16), parameter :: primal_columns(10) = [character(len=16) :: &
+    '#level', 'h', '#ndof', '#primal_iters', 'primal_s', 'err_u_H1', 'rate_u_H1', &
+    'err_u_L2', 'rate_u_L2', 'kkt_residual']
+
+contains
+
+  !> Run every run of the namelist file `path`, printing progress on `unit`
+  !> (default: standard output).  Stops at the first run that fails; st carries a
+  !> warning (DS_WARN_NOT_CONVERGED) when a solve hit its iteration limit.
+  subroutine run_namelist_file(path, st, unit)
+    character(len=*), intent(in) :: path
+    type(status_t), intent(out) :: st
+    integer, intent(in), optional :: unit
+    type(run_config_t), allocatable :: runs(:)
+    type(status_t) :: st_run
+    integer :: r, out
+    out = output_unit
+    if (present(unit)) out = unit
+    call read_config_file(path, runs, st)
+    if (st%code /= 0) return
+    do r = 1, size(runs)
+      call run_one(runs(r), st_run, out)
+      if (.not. is_ok(st_run)) then
+        st = st_run
+        return
+      end if
+      if (st_run%code /= DS_OK) call set_warning(st, st_run%code, st_run%msg)
+    end do
+  end subroutine run_namelist_file
+
+  !> One run: build the coarse mesh, then for each level refine, assemble, solve, measure
+  !> the errors and append a row; finally write `<output>.txt` and `<output>.csv`.
+  subroutine run_one(cfg, st, unit, table)
+    type(run_config_t), intent(in) :: cfg
+    type(status_t), intent(out) :: st
+    integer, intent(in) :: unit
+    type(table_t), intent(out), optional :: table
+    type(scene_t) :: scene
+    type(mesh_t) :: mesh, finer
+    type(primal_system_t) :: sys
+    type(psor_settings_t) :: settings
+    type(psor_result_t) :: res
+    type(tri_rule_t) :: load_rule, exact_rule
+    type(table_t) :: tab
+    type(mesh_quality_t) :: q0
+    type(status_t) :: st_solve
+    integer, allocatable :: gamma_u(:), gamma_a(:)
+    real(dp), allocatable :: u(:), u_prev(:)
+    real(dp) :: h, err_l2, err_h1semi, err_energy, rate, seconds, lmin, lmax
+    integer :: level, steps, nflip, nonconverged
+    logical :: ok
+    character(len=300), allocatable :: header(:)
+    character(len=:), allocatable :: txt_path, csv_path, norm_name, matrices, parts, title
+    character(len=200) :: line
+
+    title = trim(cfg%title)
+    if (len(title) == 0) title = trim(cfg%output)
+    call scene_lookup(cfg%scene, scene, st)
+    if (st%code /= 0) then
+      st%msg = cfg%source_file // ': &run scene: ' // st%msg
+      return
+    end if
+    if (any(cfg%gamma_u_markers /= 0) .or. any(cfg%gamma_a_markers /= 0)) then
+      gamma_u = cfg%gamma_u_markers
+      gamma_a = cfg%gamma_a_markers
+    else
+      gamma_u = scene%gamma_u_markers
+      gamma_a = scene%gamma_a_markers
+    end if
+
+    ! ---- coarse mesh
+    nflip = 0
+    select case (trim(cfg%mesh_source))
+    case ('rectangle')
+      call mesh_rectangle(mesh, cfg%x0, cfg%x1, cfg%y0, cfg%y1, cfg%nx, cfg%ny, cfg%pattern, st)
+    case ('lshape')
+      call mesh_lshape(mesh, cfg%n, st)
+    case ('holed_square')
+      call mesh_holed_square(mesh, cfg%n, st)
+    case ('file')
+      call mesh_read_text(cfg%mesh_file, mesh, st, nflip)
+    end select
+    if (st%code /= 0) return
+    if (nflip > 0) write (unit, '(a,i0,a)') 'warning: ', nflip, ' clockwise triangles of ' // &
+      trim(cfg%mesh_file) // ' were reoriented'
+    if (scene%has_exact .and. scene%domain == 'unit_square') then
+      if (abs(minval(mesh%xy(1, :))) > domain_tol .or. abs(maxval(mesh%xy(1, :)) - 1.0_dp) > domain_tol &
+          .or. abs(minval(mesh%xy(2, :))) > domain_tol .or. abs(maxval(mesh%xy(2, :)) - 1.0_dp) > domain_tol) then
+        call set_error(st, DS_ERR_INPUT, cfg%source_file // ': run of line ' // itoa(cfg%line) // &
+          ': scene ' // trim(scene%name) // ' has its exact solution on the unit square (0,1)^2; ' // &
+          'the mesh covers another domain')
+        return
+      end if
+    end if
+    q0 = mesh_quality(mesh)
+
+    ! ---- table and output names
+    txt_path = trim(cfg%output) // '.txt'
+    csv_path = trim(cfg%output) // '.csv'
+    call ensure_parent_dir(txt_path, st)
+    if (st%code /= 0) return
+    call table_init(tab, primal_columns)
+
+    load_rule = tri_rule(load_degree)
+    if (scene%has_exact) exact_rule = tri_rule(exact_degree)
+    settings%omega = cfg%omega
+    settings%tol = cfg%tol
+    settings%max_iter = cfg%max_iter
+    settings%check_every = cfg%check_every
+    nonconverged = 0
+
+    write (unit, '(a)') 'dualsig: run "' // trim(title) // '" (scene ' // trim(scene%name) // &
+      ', ' // trim(cfg%source_file) // ' line ' // itoa(cfg%line) // ')'
+    write (unit, '(a)') table_format_header(tab)
+    do level = 1, cfg%levels
+      if (level > 1) then
+        call mesh_refine_uniform(mesh, finer, st)
+        if (st%code /= 0) return
+        if (cfg%nested) then
+          allocate (u_prev(finer%nnode))
+          call mesh_prolongate_p1(mesh, finer, u, u_prev)
+        end if
+        mesh = finer
+      end if
+      h = mesh_h(mesh)
+      call primal_assemble(mesh, scene%problem, scene%f, load_rule, sys)
+      call primal_constraints(mesh, scene%problem, gamma_u, gamma_a, sys%kind, sys%bnd, st)
+      if (st%code /= 0) then
+        st%msg = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': ' // st%msg
+        return
+      end if
+      if (allocated(u_prev)) then
+        call move_alloc(u_prev, u)
+      else
+        if (allocated(u)) deallocate (u)
+        allocate (u(mesh%nnode), source=0.0_dp)
+      end if
+
+      seconds = wall_seconds()
+      if (cfg%omega_auto) then
+        call jacobi_scaled_extremes(sys%a, sys%kind /= BOUND_FIXED, lanczos_max_steps, lanczos_rel_tol, &
+                                    lmin, lmax, steps, st)
+        if (st%code /= 0) return
+        settings%omega = sor_omega_from_jacobi(lmin, lmax)
+      end if
+      call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, settings, res, st_solve)
+      seconds = wall_seconds() - seconds
+      if (.not. is_ok(st_solve)) then
+        st = st_solve
+        st%msg = 'level ' // itoa(level) // ': ' // st%msg
+        return
+      end if
+      if (st_solve%code == DS_WARN_NOT_CONVERGED) then
+        nonconverged = nonconverged + 1
+        write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_solve%msg
+      end if
+
+      call table_new_row(tab)
+      call table_set(tab, 'level', real(level, dp))
+      call table_set(tab, 'h', h)
+      call table_set(tab, 'ndof', real(count(sys%kind /= BOUND_FIXED), dp))
+      call table_set(tab, 'primal_iters', real(res%iterations, dp))
+      call table_set(tab, 'primal_s', seconds)
+      call table_set(tab, 'kkt_residual', res%kkt_residual)
+      if (scene%has_exact) then
+        call p1_error_norms(mesh, u, scene%u, scene%grad_u, exact_rule, err_l2, err_h1semi)
+        ! the energy norm of the problem: full H1 norm for P1, H1 seminorm for P2
+        if (scene%problem == PROBLEM_P1) then
+          err_energy = sqrt(err_l2**2 + err_h1semi**2)
+        else
+          err_energy = err_h1semi
+        end if
+        call table_set(tab, 'err_u_H1', err_energy)
+        call table_set(tab, 'err_u_L2', err_l2)
+        if (level > 1) then
+          call observed_rate(table_value(tab, level - 1, 'err_u_H1'), err_energy, &
+                             table_value(tab, level - 1, 'h'), h, rate, ok)
+          if (ok) call table_set(tab, 'rate_u_H1', rate)
+          call observed_rate(table_value(tab, level - 1, 'err_u_L2'), err_l2, &
+                             table_value(tab, level - 1, 'h'), h, rate, ok)
+          if (ok) call table_set(tab, 'rate_u_L2', rate)
+        end if
+      end if
+      write (unit, '(a)') table_format_row(tab, level)
+      flush (unit)
+    end do
+
+    ! ---- header and files
+    allocate (header(0))
+    if (scene%problem == PROBLEM_P1) then
+      norm_name = 'the full H1 norm ||.||_1'
+      matrices = 'K + M'
+    else
+      norm_name = 'the H1 seminorm |.|_1'
+      matrices = 'K (no mass matrix)'
+    end if
+    parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (projected SOR'
+    if (cfg%omega_auto) parts = parts // ', omega from a Lanczos estimate'
+    parts = parts // ')'
+    if (scene%has_exact) then
+      parts = parts // ', exact errors (degree-' // itoa(exact_degree) // ' quadrature)'
+    else
+      parts = parts // ', no exact solution: error columns nan'
+    end if
+    parts = parts // '; dual analysis not requested'
+    header = [character(len=300) :: &
+      'dualsig error table: ' // trim(title), &
+      'scene ' // trim(scene%name) // ': ' // trim(scene%description), &
+      'problem P' // itoa(scene%problem) // '; err_u_H1 is ' // norm_name // ' of u - u_h (the energy norm)', &
+      parts, &
+      'coarse mesh: ' // itoa(q0%nnode) // ' nodes, ' // itoa(q0%ntri) // ' triangles, ' // &
+        itoa(q0%nloop) // ' boundary loop(s), min angle ' // rtoa(q0%min_angle_deg) // ' deg', &
+      'h = longest side; ndof = unknowns not fixed by Gamma_u; primal_s = wall time of the ' // &
+        'solve; rates = observed orders between levels', &
+      'namelist (resolved):']
+    header = [header, config_echo(cfg)]
+    if (nonconverged > 0) then
+      write (line, '(a,i0,a)') 'WARNING: ', nonconverged, ' level(s) stopped at max_iter (see kkt_residual)'
+      header = [header, line]
+    end if
+    call table_write_text(tab, txt_path, header, st)
+    if (st%code /= 0) return
+    call table_write_csv(tab, csv_path, st)
+    if (st%code /= 0) then
+      call file_delete(temp_name(txt_path))
+      return
+    end if
+    call file_commit(txt_path, st)
+    if (st%code == 0) call file_commit(csv_path, st)
+    if (st%code /= 0) then
+      call file_delete(temp_name(txt_path))
+      call file_delete(temp_name(csv_path))
+      return
+    end if
+    write (unit, '(a)') 'dualsig: table written to ' // txt_path // ' and ' // csv_path
+    if (nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &
+      itoa(nonconverged) // ' level(s) of run "' // trim(cfg%title) // '" did not converge')
+    if (present(table)) table = tab
+  end subroutine run_one
+
+  !> Wall-clock seconds from an arbitrary origin.
+  real(dp) function wall_seconds()
+    integer(int64) :: count, rate
+    call system_clock(count, rate)
+    wall_seconds = real(count, dp) / real(rate, dp)
+  end function wall_seconds
+
+  pure function itoa(i) result(s)
+    integer, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=16) :: buf
+    write (buf, '(i0)') i
+    s = trim(buf)
+  end function itoa
+
+  pure function rtoa(x) result(s)
+    real(dp), intent(in) :: x
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    write (buf, '(f0.2)') x
+    s = trim(adjustl(buf))
+  end function rtoa
+end module dualsig_driver

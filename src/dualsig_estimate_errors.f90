@@ -1,0 +1,47 @@
+!> Errors of a P1 approximation against a known exact solution, integrated with a
+!> high-order quadrature rule on every triangle.
+module dualsig_estimate_errors
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: scalar_field, vector_field
+  use dualsig_mesh, only: mesh_t
+  use dualsig_quadrature, only: tri_rule_t
+  use dualsig_elements_p1, only: p1_gradients
+  implicit none
+  private
+
+  public :: p1_error_norms
+
+contains
+
+  !> err_l2 = ||u - u_h||_0 and err_h1semi = |u - u_h|_1 for the nodal P1 vector uh.
+  subroutine p1_error_norms(mesh, uh, u, grad_u, rule, err_l2, err_h1semi)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: uh(:)
+    procedure(scalar_field) :: u
+    procedure(vector_field) :: grad_u
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(out) :: err_l2, err_h1semi
+    real(dp) :: xy(2, 3), grad(2, 3), area, p(2), gh(2), e0, e1, el0, el1, ue(3), d(2)
+    integer :: t, q
+    e0 = 0.0_dp
+    e1 = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      ue = uh(mesh%tri(:, t))
+      call p1_gradients(xy, grad, area)
+      gh = matmul(grad, ue)
+      el0 = 0.0_dp
+      el1 = 0.0_dp
+      do q = 1, rule%n
+        p = matmul(xy, rule%bary(:, q))
+        el0 = el0 + rule%w(q) * (u(p(1), p(2)) - dot_product(rule%bary(:, q), ue))**2
+        d = grad_u(p(1), p(2)) - gh
+        el1 = el1 + rule%w(q) * dot_product(d, d)
+      end do
+      e0 = e0 + area * el0
+      e1 = e1 + area * el1
+    end do
+    err_l2 = sqrt(e0)
+    err_h1semi = sqrt(e1)
+  end subroutine p1_error_norms
+end module dualsig_estimate_errors

@@ -1,0 +1,662 @@
+!> Run configuration: namelist files for batch runs.
+!>
+!> A file is a sequence of runs.  Each run starts with a `&run` group; the `&mesh` and
+!> `&solver` groups that follow it (before the next `&run`) belong to that run, in any
+!> order, each at most once.  Variables not given keep their defaults, which are reset
+!> for every run, so each run is self-contained.  Comments start with '!'.
+!>
+!> Before the namelist read every assignment is checked against the group's variable
+!> list (unknown variable -> error naming it and the line); when the read fails the
+!> assignments are re-read one at a time to name the variable whose value is invalid.
+!> Values are then checked for range.  Every message names the file, the group, the
+!> line and what was expected.  See README.md for the variables and their defaults.
+module dualsig_io_config
+  use dualsig_kinds, only: dp
+  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_IO
+  use dualsig_scenes, only: max_markers
+  implicit none
+  private
+
+  public :: run_config_t, read_config_file, config_echo
+
+  integer, parameter :: max_line_len = 1024     !! longest accepted line of a namelist file
+  integer, parameter :: max_levels = 14         !! largest accepted number of mesh levels
+
+  character(len=*), parameter :: run_items = &
+    'title scene output gamma_u_markers gamma_a_markers'
+  character(len=*), parameter :: mesh_items = &
+    'source file x0 x1 y0 y1 nx ny n pattern levels'
+  character(len=*), parameter :: solver_items = &
+    'method omega omega_auto tol max_iter check_every nested'
+
+  type :: run_config_t
+    character(len=:), allocatable :: source_file   !! the namelist file
+    integer :: line = 0                            !! line of the &run group
+    ! &run
+    character(len=80) :: title = ''
+    character(len=32) :: scene = 'p2_contact'
+    character(len=256) :: output = 'out/dualsig'
+    integer :: gamma_u_markers(max_markers) = 0    !! all 0: the scene's default
+    integer :: gamma_a_markers(max_markers) = 0    !! all 0: the scene's default
+    ! &mesh
+    character(len=16) :: mesh_source = 'rectangle'
+    character(len=256) :: mesh_file = ''
+    real(dp) :: x0 = 0.0_dp, x1 = 1.0_dp, y0 = 0.0_dp, y1 = 1.0_dp
+    integer :: nx = 2, ny = 2, n = 1
+    character(len=16) :: pattern = 'right'
+    integer :: levels = 4
+    ! &solver
+    character(len=16) :: method = 'psor'
+    real(dp) :: omega = 1.0_dp
+    logical :: omega_auto = .false.
+    real(dp) :: tol = 1.0e-10_dp
+    integer :: max_iter = 200000
+    integer :: check_every = 10
+    logical :: nested = .true.
+  end type run_config_t
+
+  type :: group_t
+    character(len=32) :: name = ''
+    integer :: line = 0                              !! line of the '&name'
+    character(len=max_line_len), allocatable :: text(:)  !! assignments (comments removed)
+    integer, allocatable :: text_line(:)             !! source line of each assignment
+  end type group_t
+
+contains
+
+  !> Read every run of the namelist file `path`.
+  subroutine read_config_file(path, runs, st)
+    character(len=*), intent(in) :: path
+    type(run_config_t), allocatable, intent(out) :: runs(:)
+    type(status_t), intent(out) :: st
+    character(len=max_line_len), allocatable :: lines(:)
+    type(group_t), allocatable :: groups(:)
+    integer :: g, r, nrun
+    logical :: seen_mesh, seen_solver
+
+    allocate (runs(0))
+    call read_lines(path, lines, st)
+    if (st%code /= 0) return
+    call split_groups(path, lines, groups, st)
+    if (st%code /= 0) return
+    nrun = count(groups%name == 'run')
+    if (nrun == 0) then
+      call set_error(st, DS_ERR_INPUT, trim(path) // ': no &run group found (a run starts with &run)')
+      return
+    end if
+    deallocate (runs)
+    allocate (runs(nrun))
+    r = 0
+    seen_mesh = .false.
+    seen_solver = .false.
+    do g = 1, size(groups)
+      select case (trim(groups(g)%name))
+      case ('run')
+        r = r + 1
+        runs(r)%source_file = path
+        runs(r)%line = groups(g)%line
+        seen_mesh = .false.
+        seen_solver = .false.
+        call apply_group(path, groups(g), run_items, runs(r), st)
+      case ('mesh', 'solver')
+        if (r == 0) then
+          call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
+            ': group &' // trim(groups(g)%name) // ' before the first &run group')
+          return
+        end if
+        if ((groups(g)%name == 'mesh' .and. seen_mesh) .or. (groups(g)%name == 'solver' .and. seen_solver)) then
+          call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
+            ': second &' // trim(groups(g)%name) // ' group in the run of line ' // itoa(runs(r)%line))
+          return
+        end if
+        if (groups(g)%name == 'mesh') then
+          seen_mesh = .true.
+          call apply_group(path, groups(g), mesh_items, runs(r), st)
+        else
+          seen_solver = .true.
+          call apply_group(path, groups(g), solver_items, runs(r), st)
+        end if
+      case default
+        call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
+          ': unknown namelist group &' // trim(groups(g)%name) // '; expected &run, &mesh or &solver')
+        return
+      end select
+      if (st%code /= 0) return
+    end do
+    do r = 1, nrun
+      call validate(runs(r), st)
+      if (st%code /= 0) return
+    end do
+  end subroutine read_config_file
+
+  !> The resolved configuration as namelist text (for the header of a table).
+  function config_echo(cfg) result(lines)
+    type(run_config_t), intent(in) :: cfg
+    character(len=300), allocatable :: lines(:)
+    allocate (lines(3))
+    lines(1) = '&run title = ''' // trim(cfg%title) // ''', scene = ''' // trim(cfg%scene) // &
+      ''', output = ''' // trim(cfg%output) // ''', gamma_u_markers = ' // ilist(cfg%gamma_u_markers) // &
+      ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ' /'
+    lines(2) = '&mesh source = ''' // trim(cfg%mesh_source) // ''', file = ''' // trim(cfg%mesh_file) // &
+      ''', x0 = ' // rtoa(cfg%x0) // ', x1 = ' // rtoa(cfg%x1) // ', y0 = ' // rtoa(cfg%y0) // &
+      ', y1 = ' // rtoa(cfg%y1) // ', nx = ' // itoa(cfg%nx) // ', ny = ' // itoa(cfg%ny) // &
+      ', n = ' // itoa(cfg%n) // ', pattern = ''' // trim(cfg%pattern) // ''', levels = ' // &
+      itoa(cfg%levels) // ' /'
+    lines(3) = '&solver method = ''' // trim(cfg%method) // ''', omega = ' // rtoa(cfg%omega) // &
+      ', omega_auto = ' // ltoa(cfg%omega_auto) // ', tol = ' // rtoa(cfg%tol) // ', max_iter = ' // &
+      itoa(cfg%max_iter) // ', check_every = ' // itoa(cfg%check_every) // ', nested = ' // &
+      ltoa(cfg%nested) // ' /'
+  end function config_echo
+
+  ! ================================================================== reading
+  !> All lines of a text file.
+  subroutine read_lines(path, lines, st)
+    character(len=*), intent(in) :: path
+    character(len=max_line_len), allocatable, intent(out) :: lines(:)
+    type(status_t), intent(out) :: st
+    character(len=max_line_len + 1) :: buf
+    character(len=256) :: msg
+    integer :: u, ios, n, sz
+    logical :: there
+    inquire (file=path, exist=there)
+    if (.not. there) then
+      call set_error(st, DS_ERR_IO, trim(path) // ': namelist file not found')
+      return
+    end if
+    open (newunit=u, file=path, status='old', action='read', iostat=ios, iomsg=msg)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, trim(path) // ': cannot open: ' // trim(msg))
+      return
+    end if
+    allocate (lines(64))
+    n = 0
+    do
+      read (u, '(a)', iostat=ios, size=sz, advance='no') buf
+      if (is_iostat_end(ios)) exit
+      if (ios /= 0 .and. .not. is_iostat_eor(ios)) then
+        call set_error(st, DS_ERR_IO, trim(path) // ': read error after line ' // itoa(n))
+        close (u)
+        return
+      end if
+      if (sz > max_line_len) then
+        call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(n + 1) // &
+          ' is longer than ' // itoa(max_line_len) // ' characters')
+        close (u)
+        return
+      end if
+      if (.not. is_iostat_eor(ios)) then       ! line longer than buf: skip the rest
+        read (u, '(a)', iostat=ios)
+      end if
+      n = n + 1
+      if (n > size(lines)) lines = [lines, lines]
+      lines(n) = buf(1:sz)
+    end do
+    close (u)
+    lines = lines(1:n)
+  end subroutine read_lines
+
+  !> Split the file into namelist groups: '&name' ... '/' (quote-aware; '!' comments).
+  !> Text outside a group other than blanks and comments is an error.
+  subroutine split_groups(path, lines, groups, st)
+    character(len=*), intent(in) :: path
+    character(len=*), intent(in) :: lines(:)
+    type(group_t), allocatable, intent(out) :: groups(:)
+    type(status_t), intent(out) :: st
+    integer :: i, k, g, ng, name_end
+    integer :: owner(size(lines))          ! group of each line's body text (0: none)
+    character(len=max_line_len) :: body(size(lines))
+    character(len=32) :: gname(size(lines))
+    integer :: gline(size(lines))
+    logical :: inside
+    character(len=1) :: quote
+    character(len=max_line_len) :: cur
+    inside = .false.
+    ng = 0
+    owner = 0
+    do i = 1, size(lines)
+      cur = lines(i)
+      k = 1
+      if (.not. inside) then
+        k = verify(cur, ' ' // achar(9))
+        if (k == 0) cycle
+        if (cur(k:k) == '!') cycle
+        if (cur(k:k) /= '&') then
+          call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // &
+            ': expected the start of a namelist group (&run, &mesh or &solver), found "' // &
+            trim(cur(k:min(len_trim(cur), k + 30))) // '"')
+          allocate (groups(0))
+          return
+        end if
+        name_end = k + 1
+        do while (name_end <= len_trim(cur))
+          if (.not. is_ident_char(cur(name_end:name_end))) exit
+          name_end = name_end + 1
+        end do
+        ng = ng + 1
+        gname(ng) = lower(cur(k + 1:name_end - 1))
+        gline(ng) = i
+        inside = .true.
+        cur(1:name_end - 1) = ' '
+        k = name_end
+      end if
+      ! inside a group: keep characters up to a comment or the closing '/'
+      quote = ' '
+      do while (k <= len_trim(cur))
+        if (quote /= ' ') then
+          if (cur(k:k) == quote) quote = ' '
+        else if (cur(k:k) == '''' .or. cur(k:k) == '"') then
+          quote = cur(k:k)
+        else if (cur(k:k) == '!') then
+          cur(k:) = ' '
+          exit
+        else if (cur(k:k) == '/') then
+          cur(k:) = ' '
+          inside = .false.
+          exit
+        end if
+        k = k + 1
+      end do
+      if (quote /= ' ') then
+        call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // ': unterminated string')
+        allocate (groups(0))
+        return
+      end if
+      if (len_trim(cur) > 0) then
+        owner(i) = ng
+        body(i) = cur
+      end if
+    end do
+    allocate (groups(ng))
+    do g = 1, ng
+      groups(g)%name = gname(g)
+      groups(g)%line = gline(g)
+      groups(g)%text = pack(body, owner == g)
+      groups(g)%text_line = pack([(i, i=1, size(lines))], owner == g)
+    end do
+    if (inside) then
+      call set_error(st, DS_ERR_INPUT, trim(path) // ': group &' // trim(gname(ng)) // &
+        ' of line ' // itoa(gline(ng)) // ' is not closed by "/"')
+    end if
+  end subroutine split_groups
+
+  !> Check the variable names of a group, then read it into cfg.
+  subroutine apply_group(path, grp, items, cfg, st)
+    character(len=*), intent(in) :: path
+    type(group_t), intent(in) :: grp
+    character(len=*), intent(in) :: items
+    type(run_config_t), intent(inout) :: cfg
+    type(status_t), intent(out) :: st
+    character(len=max_line_len), allocatable :: assign(:)
+    integer, allocatable :: assign_line(:)
+    character(len=64) :: name
+    character(len=256) :: msg
+    integer :: a, ios
+    type(run_config_t) :: probe
+    call split_assignments(grp, assign, assign_line, st)
+    if (st%code /= 0) then
+      st%msg = trim(path) // ': ' // st%msg
+      return
+    end if
+    do a = 1, size(assign)
+      name = assignment_name(assign(a))
+      if (index(' ' // items // ' ', ' ' // trim(name) // ' ') == 0) then
+        call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(grp%name) // ', line ' // &
+          itoa(assign_line(a)) // ': unknown variable "' // trim(name) // '"; expected one of: ' // items)
+        return
+      end if
+    end do
+    call read_group(grp%name, assign, cfg, ios, msg)
+    if (ios == 0) return
+    ! find the assignment whose value does not read
+    do a = 1, size(assign)
+      probe = cfg
+      call read_group(grp%name, assign(a:a), probe, ios, msg)
+      if (ios /= 0) then
+        name = assignment_name(assign(a))
+        call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(grp%name) // ', line ' // &
+          itoa(assign_line(a)) // ': invalid value for "' // trim(name) // '" (expected ' // &
+          expected_type(name) // ')')
+        return
+      end if
+    end do
+    call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(grp%name) // ', line ' // &
+      itoa(grp%line) // ': ' // trim(msg))
+  end subroutine apply_group
+
+  !> Split a group's text into assignments "name = value[, value...]", each starting at an
+  !> identifier followed (after an optional subscript) by '=' outside quotes.
+  subroutine split_assignments(grp, assign, assign_line, st)
+    type(group_t), intent(in) :: grp
+    character(len=max_line_len), allocatable, intent(out) :: assign(:)
+    integer, allocatable, intent(out) :: assign_line(:)
+    type(status_t), intent(out) :: st
+    integer :: t, k, j, n, depth
+    character(len=1) :: quote
+    character(len=max_line_len) :: cur
+    allocate (assign(0), assign_line(0))
+    n = 0
+    do t = 1, size(grp%text)
+      cur = grp%text(t)
+      quote = ' '
+      k = 1
+      do while (k <= len_trim(cur))
+        if (quote /= ' ') then
+          if (cur(k:k) == quote) quote = ' '
+          k = k + 1
+          cycle
+        end if
+        if (cur(k:k) == '''' .or. cur(k:k) == '"') then
+          quote = cur(k:k)
+        else if (is_ident_start(cur(k:k)) .and. starts_token(cur, k)) then
+          ! identifier: is it followed by '=' (optionally after a subscript)?
+          j = k
+          do while (j <= len_trim(cur))
+            if (.not. is_ident_char(cur(j:j))) exit
+            j = j + 1
+          end do
+          j = skip_blanks(cur, j)
+          if (j <= len_trim(cur) .and. cur(j:j) == '(') then
+            depth = 0
+            do while (j <= len_trim(cur))
+              if (cur(j:j) == '(') depth = depth + 1
+              if (cur(j:j) == ')') depth = depth - 1
+              j = j + 1
+              if (depth == 0) exit
+            end do
+            j = skip_blanks(cur, j)
+          end if
+          if (j <= len_trim(cur) .and. cur(j:j) == '=') then
+            n = n + 1
+            assign = [character(len=max_line_len) :: assign, cur(k:)]
+            assign_line = [assign_line, grp%text_line(t)]
+            if (n > 1) call cut_previous(assign(n - 1), cur(k:))
+            k = j + 1
+            cycle
+          end if
+          k = j
+          cycle
+        end if
+        k = k + 1
+      end do
+      if (n == 0) then
+        call set_error(st, DS_ERR_INPUT, '&' // trim(grp%name) // ', line ' // itoa(grp%text_line(t)) // &
+          ': expected "name = value", found "' // trim(cur) // '"')
+        return
+      end if
+    end do
+    ! glue continuation lines (lines without an assignment) to the previous assignment
+    call glue_continuations(grp, assign, assign_line)
+  end subroutine split_assignments
+
+  !> Remove from `prev` the text of the following assignment `next` (same line).
+  pure subroutine cut_previous(prev, next)
+    character(len=*), intent(inout) :: prev
+    character(len=*), intent(in) :: next
+    integer :: k
+    k = index(prev, trim(next), back=.true.)
+    if (k > 1) prev(k:) = ' '
+  end subroutine cut_previous
+
+  !> Lines of a group that contain no assignment continue the value list of the previous one.
+  subroutine glue_continuations(grp, assign, assign_line)
+    type(group_t), intent(in) :: grp
+    character(len=max_line_len), intent(inout) :: assign(:)
+    integer, intent(in) :: assign_line(:)
+    integer :: t, a
+    do t = 1, size(grp%text)
+      if (any(assign_line == grp%text_line(t))) cycle
+      do a = size(assign), 1, -1
+        if (assign_line(a) < grp%text_line(t)) then
+          assign(a) = trim(assign(a)) // ' ' // adjustl(grp%text(t))
+          exit
+        end if
+      end do
+    end do
+  end subroutine glue_continuations
+
+  !> Read the assignments of group `gname` into cfg with a real namelist read.
+  subroutine read_group(gname, assign, cfg, ios, msg)
+    character(len=*), intent(in) :: gname
+    character(len=*), intent(in) :: assign(:)
+    type(run_config_t), intent(inout) :: cfg
+    integer, intent(out) :: ios
+    character(len=*), intent(out) :: msg
+    character(len=max_line_len + 16) :: rec(size(assign) + 2)
+    ! &run
+    character(len=80) :: title
+    character(len=32) :: scene
+    character(len=256) :: output
+    integer :: gamma_u_markers(max_markers), gamma_a_markers(max_markers)
+    ! &mesh
+    character(len=16) :: source, pattern
+    character(len=256) :: file
+    real(dp) :: x0, x1, y0, y1
+    integer :: nx, ny, n, levels
+    ! &solver
+    character(len=16) :: method
+    real(dp) :: omega, tol
+    logical :: omega_auto, nested
+    integer :: max_iter, check_every
+    namelist /run/ title, scene, output, gamma_u_markers, gamma_a_markers
+    namelist /mesh/ source, file, x0, x1, y0, y1, nx, ny, n, pattern, levels
+    namelist /solver/ method, omega, omega_auto, tol, max_iter, check_every, nested
+    integer :: k
+
+    rec(1) = '&' // gname
+    do k = 1, size(assign)
+      rec(k + 1) = assign(k)
+    end do
+    rec(size(rec)) = '/'
+    msg = ''
+    ios = 0
+    select case (gname)
+    case ('run')
+      title = cfg%title
+      scene = cfg%scene
+      output = cfg%output
+      gamma_u_markers = cfg%gamma_u_markers
+      gamma_a_markers = cfg%gamma_a_markers
+      read (rec, nml=run, iostat=ios, iomsg=msg)
+      if (ios /= 0) return
+      cfg%title = title
+      cfg%scene = scene
+      cfg%output = output
+      cfg%gamma_u_markers = gamma_u_markers
+      cfg%gamma_a_markers = gamma_a_markers
+    case ('mesh')
+      source = cfg%mesh_source
+      file = cfg%mesh_file
+      x0 = cfg%x0
+      x1 = cfg%x1
+      y0 = cfg%y0
+      y1 = cfg%y1
+      nx = cfg%nx
+      ny = cfg%ny
+      n = cfg%n
+      pattern = cfg%pattern
+      levels = cfg%levels
+      read (rec, nml=mesh, iostat=ios, iomsg=msg)
+      if (ios /= 0) return
+      cfg%mesh_source = source
+      cfg%mesh_file = file
+      cfg%x0 = x0
+      cfg%x1 = x1
+      cfg%y0 = y0
+      cfg%y1 = y1
+      cfg%nx = nx
+      cfg%ny = ny
+      cfg%n = n
+      cfg%pattern = pattern
+      cfg%levels = levels
+    case ('solver')
+      method = cfg%method
+      omega = cfg%omega
+      omega_auto = cfg%omega_auto
+      tol = cfg%tol
+      max_iter = cfg%max_iter
+      check_every = cfg%check_every
+      nested = cfg%nested
+      read (rec, nml=solver, iostat=ios, iomsg=msg)
+      if (ios /= 0) return
+      cfg%method = method
+      cfg%omega = omega
+      cfg%omega_auto = omega_auto
+      cfg%tol = tol
+      cfg%max_iter = max_iter
+      cfg%check_every = check_every
+      cfg%nested = nested
+    end select
+  end subroutine read_group
+
+  !> Range checks of a run configuration, each naming the variable and what is expected.
+  subroutine validate(cfg, st)
+    type(run_config_t), intent(in) :: cfg
+    type(status_t), intent(out) :: st
+    character(len=:), allocatable :: where
+    where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': '
+    if (len_trim(cfg%output) == 0) then
+      call set_error(st, DS_ERR_INPUT, where // '&run output must name the output files (no extension)')
+    else if (any(cfg%gamma_u_markers < 0) .or. any(cfg%gamma_a_markers < 0)) then
+      call set_error(st, DS_ERR_INPUT, where // '&run gamma_u_markers / gamma_a_markers must be > 0')
+    else if (.not. any(cfg%mesh_source == [character(len=16) :: 'rectangle', 'lshape', 'holed_square', 'file'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh source = "' // trim(cfg%mesh_source) // &
+        '"; expected rectangle, lshape, holed_square or file')
+    else if (cfg%mesh_source == 'file' .and. len_trim(cfg%mesh_file) == 0) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh file must be given when source = ''file''')
+    else if (cfg%levels < 1 .or. cfg%levels > max_levels) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh levels = ' // itoa(cfg%levels) // &
+        '; expected 1 to ' // itoa(max_levels))
+    else if (cfg%nx < 1 .or. cfg%ny < 1 .or. cfg%n < 1) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh nx, ny and n must be >= 1')
+    else if (.not. (cfg%x1 > cfg%x0 .and. cfg%y1 > cfg%y0)) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh needs x0 < x1 and y0 < y1')
+    else if (.not. any(cfg%pattern == [character(len=16) :: 'right', 'left', 'union_jack'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh pattern = "' // trim(cfg%pattern) // &
+        '"; expected right, left or union_jack')
+    else if (cfg%method /= 'psor') then
+      call set_error(st, DS_ERR_INPUT, where // '&solver method = "' // trim(cfg%method) // &
+        '"; expected psor')
+    else if (.not. (cfg%omega > 0.0_dp .and. cfg%omega < 2.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&solver omega = ' // rtoa(cfg%omega) // &
+        '; expected 0 < omega < 2')
+    else if (.not. (cfg%tol > 0.0_dp .and. cfg%tol < 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&solver tol = ' // rtoa(cfg%tol) // &
+        '; expected 0 < tol < 1')
+    else if (cfg%max_iter < 1) then
+      call set_error(st, DS_ERR_INPUT, where // '&solver max_iter must be >= 1')
+    else if (cfg%check_every < 1) then
+      call set_error(st, DS_ERR_INPUT, where // '&solver check_every must be >= 1')
+    end if
+  end subroutine validate
+
+  ! ================================================================== small helpers
+  pure function expected_type(name) result(s)
+    character(len=*), intent(in) :: name
+    character(len=:), allocatable :: s
+    select case (trim(name))
+    case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method')
+      s = 'a quoted string'
+    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol')
+      s = 'a real number'
+    case ('omega_auto', 'nested')
+      s = 'a logical, .true. or .false.'
+    case ('gamma_u_markers', 'gamma_a_markers')
+      s = 'a list of at most 16 integers'
+    case default
+      s = 'an integer'
+    end select
+  end function expected_type
+
+  pure function assignment_name(a) result(name)
+    character(len=*), intent(in) :: a
+    character(len=64) :: name
+    integer :: j, k
+    k = verify(a, ' ')
+    j = k
+    do while (j <= len(a))
+      if (.not. is_ident_char(a(j:j))) exit
+      j = j + 1
+    end do
+    name = lower(a(k:j - 1))
+  end function assignment_name
+
+  pure logical function is_ident_start(ch)
+    character(len=1), intent(in) :: ch
+    is_ident_start = (ch >= 'a' .and. ch <= 'z') .or. (ch >= 'A' .and. ch <= 'Z')
+  end function is_ident_start
+
+  pure logical function is_ident_char(ch)
+    character(len=1), intent(in) :: ch
+    is_ident_char = is_ident_start(ch) .or. (ch >= '0' .and. ch <= '9') .or. ch == '_'
+  end function is_ident_char
+
+  !> True when a token starts at position k of s (start of line or after a separator).
+  pure logical function starts_token(s, k)
+    character(len=*), intent(in) :: s
+    integer, intent(in) :: k
+    starts_token = .true.
+    if (k > 1) starts_token = is_separator(s, k - 1)
+  end function starts_token
+
+  !> True when position k of s separates tokens (blank, comma, semicolon).
+  pure logical function is_separator(s, k)
+    character(len=*), intent(in) :: s
+    integer, intent(in) :: k
+    is_separator = s(k:k) == ' ' .or. s(k:k) == ',' .or. s(k:k) == ';' .or. s(k:k) == achar(9)
+  end function is_separator
+
+  pure integer function skip_blanks(s, k) result(j)
+    character(len=*), intent(in) :: s
+    integer, intent(in) :: k
+    j = k
+    do while (j <= len_trim(s))
+      if (s(j:j) /= ' ') exit
+      j = j + 1
+    end do
+  end function skip_blanks
+
+  pure function lower(s) result(t)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: t
+    integer :: k
+    t = s
+    do k = 1, len(s)
+      if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') t(k:k) = achar(iachar(s(k:k)) + 32)
+    end do
+  end function lower
+
+  pure function itoa(i) result(s)
+    integer, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=16) :: buf
+    write (buf, '(i0)') i
+    s = trim(buf)
+  end function itoa
+
+  pure function rtoa(x) result(s)
+    real(dp), intent(in) :: x
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    write (buf, '(g0)') x
+    s = trim(adjustl(buf))
+  end function rtoa
+
+  pure function ltoa(l) result(s)
+    logical, intent(in) :: l
+    character(len=:), allocatable :: s
+    s = merge('.true. ', '.false.', l)
+    s = trim(s)
+  end function ltoa
+
+  pure function ilist(v) result(s)
+    integer, intent(in) :: v(:)
+    character(len=:), allocatable :: s
+    integer :: k
+    s = ''
+    do k = 1, size(v)
+      if (v(k) /= 0) s = s // ' ' // itoa(v(k))
+    end do
+    if (len(s) == 0) s = ' 0'
+    s = s(2:)
+  end function ilist
+end module dualsig_io_config

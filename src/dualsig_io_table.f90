@@ -1,0 +1,234 @@
+!> Error tables: one row per mesh level, written as aligned text and as CSV.
+!>
+!> A cell may be absent (not computed, not applicable); it is written as `nan` in both
+!> files.  Absent cells are recorded in a mask, never as NaN values, so that the
+!> floating-point traps of the checked build stay armed.  Columns are integers or reals.
+module dualsig_io_table
+  use dualsig_kinds, only: dp
+  use dualsig_status, only: status_t, set_error, DS_ERR_IO
+  use dualsig_io_files, only: temp_name, file_delete
+  implicit none
+  private
+
+  public :: table_t, table_init, table_new_row, table_set, table_value, table_has, &
+            table_write_text, table_write_csv, table_format_row, table_format_header, observed_rate
+
+  integer, parameter :: col_width = 13   !! width of a text-table column
+
+  type :: table_t
+    integer :: ncol = 0
+    integer :: nrow = 0
+    character(len=16), allocatable :: name(:)     !! (ncol) column names
+    logical, allocatable :: is_int(:)              !! (ncol) integer column
+    real(dp), allocatable :: val(:,:)              !! (ncol, capacity)
+    logical, allocatable :: present(:,:)           !! (ncol, capacity)
+  end type table_t
+
+contains
+
+  !> A table with the given column names; names starting with '#' are integer columns
+  !> (the '#' is removed).
+  subroutine table_init(tab, names)
+    type(table_t), intent(out) :: tab
+    character(len=*), intent(in) :: names(:)
+    integer :: k
+    tab%ncol = size(names)
+    allocate (tab%name(tab%ncol), tab%is_int(tab%ncol))
+    do k = 1, tab%ncol
+      tab%is_int(k) = names(k)(1:1) == '#'
+      if (tab%is_int(k)) then
+        tab%name(k) = names(k)(2:)
+      else
+        tab%name(k) = names(k)
+      end if
+    end do
+    allocate (tab%val(tab%ncol, 8), tab%present(tab%ncol, 8))
+    tab%present = .false.
+  end subroutine table_init
+
+  !> Append an empty row (all cells absent).
+  subroutine table_new_row(tab)
+    type(table_t), intent(inout) :: tab
+    real(dp), allocatable :: v(:,:)
+    logical, allocatable :: p(:,:)
+    if (tab%nrow == size(tab%val, 2)) then
+      allocate (v(tab%ncol, 2 * tab%nrow), p(tab%ncol, 2 * tab%nrow))
+      v(:, 1:tab%nrow) = tab%val
+      p = .false.
+      p(:, 1:tab%nrow) = tab%present
+      call move_alloc(v, tab%val)
+      call move_alloc(p, tab%present)
+    end if
+    tab%nrow = tab%nrow + 1
+    tab%present(:, tab%nrow) = .false.
+    tab%val(:, tab%nrow) = 0.0_dp
+  end subroutine table_new_row
+
+  !> Set the cell of column `name` in the last row.  Unknown names are ignored (returns
+  !> silently: the column set is fixed by the caller at table_init).
+  subroutine table_set(tab, name, value)
+    type(table_t), intent(inout) :: tab
+    character(len=*), intent(in) :: name
+    real(dp), intent(in) :: value
+    integer :: k
+    k = column(tab, name)
+    if (k == 0 .or. tab%nrow == 0) return
+    tab%val(k, tab%nrow) = value
+    tab%present(k, tab%nrow) = .true.
+  end subroutine table_set
+
+  !> True when the cell (row, name) holds a value.
+  pure logical function table_has(tab, row, name)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: row
+    character(len=*), intent(in) :: name
+    integer :: k
+    k = column(tab, name)
+    table_has = .false.
+    if (k > 0 .and. row >= 1 .and. row <= tab%nrow) table_has = tab%present(k, row)
+  end function table_has
+
+  !> The value of cell (row, name); 0 when absent.
+  pure real(dp) function table_value(tab, row, name)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: row
+    character(len=*), intent(in) :: name
+    integer :: k
+    k = column(tab, name)
+    table_value = 0.0_dp
+    if (k > 0 .and. row >= 1 .and. row <= tab%nrow) table_value = tab%val(k, row)
+  end function table_value
+
+  !> Observed order log(e_prev / e) / log(h_prev / h); absent unless all four are positive.
+  pure subroutine observed_rate(e_prev, e, h_prev, h, rate, ok)
+    real(dp), intent(in) :: e_prev, e, h_prev, h
+    real(dp), intent(out) :: rate
+    logical, intent(out) :: ok
+    ok = e_prev > 0.0_dp .and. e > 0.0_dp .and. h_prev > 0.0_dp .and. h > 0.0_dp &
+         .and. h_prev /= h
+    rate = 0.0_dp
+    if (ok) rate = log(e_prev / e) / log(h_prev / h)
+  end subroutine observed_rate
+
+  !> The column headings as one aligned text line.
+  function table_format_header(tab) result(line)
+    type(table_t), intent(in) :: tab
+    character(len=:), allocatable :: line
+    integer :: k
+    line = ''
+    do k = 1, tab%ncol
+      line = line // repeat(' ', max(1, col_width - len_trim(tab%name(k)))) // trim(tab%name(k))
+    end do
+  end function table_format_header
+
+  !> Row `row` as one aligned text line.
+  function table_format_row(tab, row) result(line)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: row
+    character(len=:), allocatable :: line
+    integer :: k
+    line = ''
+    do k = 1, tab%ncol
+      line = line // repeat(' ', col_width - len(cell(tab, k, row, .true.))) // &
+             cell(tab, k, row, .true.)
+    end do
+  end function table_format_row
+
+  !> Write the aligned text table to temp_name(path): `header` lines first (each prefixed
+  !> by '# '), then the column names and the rows.  The caller commits the file.
+  subroutine table_write_text(tab, path, header, st)
+    type(table_t), intent(in) :: tab
+    character(len=*), intent(in) :: path
+    character(len=*), intent(in) :: header(:)
+    type(status_t), intent(out) :: st
+    integer :: u, ios, k, r
+    character(len=256) :: msg
+    character(len=:), allocatable :: heading
+    open (newunit=u, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, 'cannot write ' // trim(path) // ': ' // trim(msg))
+      return
+    end if
+    heading = table_format_header(tab)
+    do k = 1, size(header)
+      write (u, '(a)', iostat=ios) '# ' // trim(header(k))
+    end do
+    write (u, '(a)', iostat=ios) '#' // heading(2:)
+    do r = 1, tab%nrow
+      write (u, '(a)', iostat=ios) table_format_row(tab, r)
+    end do
+    close (u, iostat=ios)
+    if (ios /= 0) then
+      call file_delete(temp_name(path))
+      call set_error(st, DS_ERR_IO, 'error while writing ' // trim(path))
+    end if
+  end subroutine table_write_text
+
+  !> Write the CSV table (header row, then one row per level, full precision) to
+  !> temp_name(path).  The caller commits the file.
+  subroutine table_write_csv(tab, path, st)
+    type(table_t), intent(in) :: tab
+    character(len=*), intent(in) :: path
+    type(status_t), intent(out) :: st
+    integer :: u, ios, k, r
+    character(len=:), allocatable :: line
+    character(len=256) :: msg
+    open (newunit=u, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, 'cannot write ' // trim(path) // ': ' // trim(msg))
+      return
+    end if
+    line = trim(tab%name(1))
+    do k = 2, tab%ncol
+      line = line // ',' // trim(tab%name(k))
+    end do
+    write (u, '(a)', iostat=ios) line
+    do r = 1, tab%nrow
+      line = cell(tab, 1, r, .false.)
+      do k = 2, tab%ncol
+        line = line // ',' // cell(tab, k, r, .false.)
+      end do
+      write (u, '(a)', iostat=ios) line
+    end do
+    close (u, iostat=ios)
+    if (ios /= 0) then
+      call file_delete(temp_name(path))
+      call set_error(st, DS_ERR_IO, 'error while writing ' // trim(path))
+    end if
+  end subroutine table_write_csv
+
+  ! ------------------------------------------------------------------ private
+  pure integer function column(tab, name)
+    type(table_t), intent(in) :: tab
+    character(len=*), intent(in) :: name
+    integer :: k
+    column = 0
+    do k = 1, tab%ncol
+      if (tab%name(k) == name) then
+        column = k
+        return
+      end if
+    end do
+  end function column
+
+  !> Cell text: short form for the aligned table, full precision for CSV.
+  pure function cell(tab, k, row, short) result(s)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: k, row
+    logical, intent(in) :: short
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    if (.not. tab%present(k, row)) then
+      s = 'nan'
+      return
+    end if
+    if (tab%is_int(k)) then
+      write (buf, '(i0)') nint(tab%val(k, row))
+    else if (short) then
+      write (buf, '(es12.4e2)') tab%val(k, row)
+    else
+      write (buf, '(es24.16e3)') tab%val(k, row)
+    end if
+    s = trim(adjustl(buf))
+  end function cell
+end module dualsig_io_table

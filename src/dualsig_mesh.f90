@@ -1,0 +1,313 @@
+!> Triangular mesh of a plane polygonal domain and its derived topology.
+!>
+!> Conventions (used by every other module):
+!> - `tri(:,t)` lists the vertices of triangle t counter-clockwise (positive signed area).
+!> - Local edge k of a triangle (k = 1, 2, 3) joins local vertices k and mod(k,3)+1,
+!>   i.e. the sides (1,2), (2,3), (3,1).
+!> - Boundary edges are stored oriented so that the domain lies on their left: the
+!>   outer loop runs counter-clockwise, the loops around holes clockwise.  For a
+!>   boundary edge from a to b with direction (dx, dy) and length L the outward unit
+!>   normal is (dy, -dx) / L.
+!> - Every boundary edge carries an integer marker (> 0) chosen by the mesh source;
+!>   a run decides by marker which edges form Gamma_u and which Gamma_a.
+!> - A boundary node is a polygon corner when the directions of its incoming and
+!>   outgoing boundary edges differ (sine of the angle > corner_sin_tol).
+module dualsig_mesh
+  use dualsig_kinds, only: dp, corner_sin_tol, geom_rel_tol
+  use dualsig_status, only: status_t, set_error, DS_ERR_MESH
+  implicit none
+  private
+
+  public :: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter, mesh_h
+
+  type :: mesh_t
+    integer :: nnode = 0                        !! number of nodes
+    integer :: ntri = 0                         !! number of triangles
+    integer :: nedge = 0                        !! number of edges (interior + boundary)
+    integer :: nbedge = 0                       !! number of boundary edges
+    integer :: nloop = 0                        !! number of boundary loops (1 + holes)
+    real(dp), allocatable :: xy(:,:)            !! (2, nnode) node coordinates
+    integer, allocatable :: tri(:,:)            !! (3, ntri) vertices, counter-clockwise
+    integer, allocatable :: bedge_nodes(:,:)    !! (2, nbedge) boundary edge, domain on the left
+    integer, allocatable :: bedge_marker(:)     !! (nbedge) boundary marker (> 0)
+    ! ---- derived by mesh_build_topology ----
+    integer, allocatable :: edge_nodes(:,:)     !! (2, nedge) end nodes, edge_nodes(1,e) < edge_nodes(2,e)
+    integer, allocatable :: edge_tri(:,:)       !! (2, nedge) adjacent triangles; edge_tri(2,e) = 0 on the boundary
+    integer, allocatable :: tri_edge(:,:)       !! (3, ntri) global edge of local edge k (vertices k, k+1)
+    integer, allocatable :: bedge_edge(:)       !! (nbedge) global edge number of a boundary edge
+    integer, allocatable :: bedge_tri(:)        !! (nbedge) triangle containing the boundary edge
+    real(dp), allocatable :: bedge_normal(:,:)  !! (2, nbedge) outward unit normal
+    real(dp), allocatable :: bedge_length(:)    !! (nbedge) side length
+    integer, allocatable :: loop_start(:)       !! (nloop+1) loop l is loop_bedge(loop_start(l):loop_start(l+1)-1)
+    integer, allocatable :: loop_bedge(:)       !! (nbedge) boundary edges in traversal order
+    integer, allocatable :: node_bedge_in(:)    !! (nnode) boundary edge ending at the node (0 inside)
+    integer, allocatable :: node_bedge_out(:)   !! (nnode) boundary edge starting at the node (0 inside)
+    logical, allocatable :: node_on_boundary(:) !! (nnode)
+    logical, allocatable :: node_is_corner(:)   !! (nnode) polygon corner of the boundary
+  end type mesh_t
+
+contains
+
+  !> Signed area of triangle t (positive for counter-clockwise vertices).
+  pure real(dp) function mesh_triangle_area(mesh, t) result(area)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: t
+    real(dp) :: a(2), b(2), c(2)
+    a = mesh%xy(:, mesh%tri(1, t))
+    b = mesh%xy(:, mesh%tri(2, t))
+    c = mesh%xy(:, mesh%tri(3, t))
+    area = 0.5_dp * ((b(1) - a(1)) * (c(2) - a(2)) - (c(1) - a(1)) * (b(2) - a(2)))
+  end function mesh_triangle_area
+
+  !> Diameter of the bounding box of the nodes (the length scale for geometric tolerances).
+  pure real(dp) function mesh_diameter(mesh) result(d)
+    type(mesh_t), intent(in) :: mesh
+    if (mesh%nnode == 0) then
+      d = 0.0_dp
+      return
+    end if
+    d = hypot(maxval(mesh%xy(1, :)) - minval(mesh%xy(1, :)), &
+              maxval(mesh%xy(2, :)) - minval(mesh%xy(2, :)))
+  end function mesh_diameter
+
+  !> Mesh size h: the longest side of all triangles (the paper's definition, Section 2).
+  pure real(dp) function mesh_h(mesh) result(h)
+    type(mesh_t), intent(in) :: mesh
+    integer :: t, k
+    real(dp) :: d(2)
+    h = 0.0_dp
+    do t = 1, mesh%ntri
+      do k = 1, 3
+        d = mesh%xy(:, mesh%tri(mod(k, 3) + 1, t)) - mesh%xy(:, mesh%tri(k, t))
+        h = max(h, hypot(d(1), d(2)))
+      end do
+    end do
+  end function mesh_h
+
+  !> Build edges, edge-triangle adjacency, boundary orientation, normals, lengths,
+  !> boundary loops and corners from `xy`, `tri`, `bedge_nodes` and `bedge_marker`.
+  !>
+  !> Checks: indices in range, positive triangle areas, no edge shared by more than two
+  !> triangles, every topological boundary edge listed exactly once with a marker > 0,
+  !> no listed boundary edge that is interior, boundary loops closed and manifold.
+  !> The input orientation of boundary edges is free; they are re-oriented so that the
+  !> domain lies on their left.  Runs in time linear in the number of triangles.
+  subroutine mesh_build_topology(mesh, st)
+    type(mesh_t), intent(inout) :: mesh
+    type(status_t), intent(out) :: st
+    integer, allocatable :: head(:), cnt(:), bucket_other(:), bucket_edge(:)
+    integer, allocatable :: bedge_of_edge(:), edge_local(:,:)
+    integer :: t, k, a, b, lo, hi, e, j, nb, ne, p, nxt, l, start, cur, steps
+    real(dp) :: area_tol, d(2), din(2), dout(2), len_in, len_out, sin_angle
+    character(len=160) :: buf
+
+    if (mesh%nnode < 3 .or. mesh%ntri < 1) then
+      call set_error(st, DS_ERR_MESH, 'mesh: need at least 3 nodes and 1 triangle')
+      return
+    end if
+    if (any(mesh%tri(:, 1:mesh%ntri) < 1) .or. any(mesh%tri(:, 1:mesh%ntri) > mesh%nnode)) then
+      t = findloc(any(mesh%tri < 1 .or. mesh%tri > mesh%nnode, dim=1), .true., dim=1)
+      write (buf, '(a,i0,a,i0,a)') 'mesh: triangle ', t, ' has a vertex index outside 1..', &
+        mesh%nnode, ' (node count)'
+      call set_error(st, DS_ERR_MESH, trim(buf))
+      return
+    end if
+    area_tol = geom_rel_tol * mesh_diameter(mesh)**2
+    do t = 1, mesh%ntri
+      if (mesh_triangle_area(mesh, t) <= area_tol) then
+        write (buf, '(a,i0,a)') 'mesh: triangle ', t, &
+          ' has zero or negative area (expected counter-clockwise vertices)'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        return
+      end if
+    end do
+
+    ! --- edges: bucket the 3*ntri half-edges by their smaller node (counting sort) ---
+    allocate (cnt(mesh%nnode + 1), source=0)
+    do t = 1, mesh%ntri
+      do k = 1, 3
+        a = mesh%tri(k, t)
+        b = mesh%tri(mod(k, 3) + 1, t)
+        lo = min(a, b)
+        cnt(lo + 1) = cnt(lo + 1) + 1
+      end do
+    end do
+    allocate (head(mesh%nnode + 1))
+    head(1) = 1
+    do j = 1, mesh%nnode
+      head(j + 1) = head(j) + cnt(j + 1)
+    end do
+    cnt = 0          ! now: number of distinct edges stored in bucket j
+    allocate (bucket_other(3 * mesh%ntri), bucket_edge(3 * mesh%ntri))
+    allocate (mesh%tri_edge(3, mesh%ntri), edge_local(2, 3 * mesh%ntri))
+    ne = 0
+    allocate (mesh%edge_nodes(2, 3 * mesh%ntri), mesh%edge_tri(2, 3 * mesh%ntri))
+    mesh%edge_tri = 0
+    do t = 1, mesh%ntri
+      do k = 1, 3
+        a = mesh%tri(k, t)
+        b = mesh%tri(mod(k, 3) + 1, t)
+        lo = min(a, b)
+        hi = max(a, b)
+        if (lo == hi) then
+          write (buf, '(a,i0,a)') 'mesh: triangle ', t, ' repeats a vertex'
+          call set_error(st, DS_ERR_MESH, trim(buf))
+          return
+        end if
+        e = 0
+        do p = head(lo), head(lo) + cnt(lo) - 1
+          if (bucket_other(p) == hi) then
+            e = bucket_edge(p)
+            exit
+          end if
+        end do
+        if (e == 0) then
+          ne = ne + 1
+          e = ne
+          p = head(lo) + cnt(lo)
+          cnt(lo) = cnt(lo) + 1
+          bucket_other(p) = hi
+          bucket_edge(p) = e
+          mesh%edge_nodes(:, e) = [lo, hi]
+          mesh%edge_tri(1, e) = t
+          edge_local(1, e) = k
+        else if (mesh%edge_tri(2, e) == 0) then
+          mesh%edge_tri(2, e) = t
+          edge_local(2, e) = k
+        else
+          write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: edge (', lo, ',', hi, &
+            ') is shared by more than two triangles (third: ', t, ')'
+          call set_error(st, DS_ERR_MESH, trim(buf))
+          return
+        end if
+        mesh%tri_edge(k, t) = e
+      end do
+    end do
+    mesh%nedge = ne
+    mesh%edge_nodes = mesh%edge_nodes(:, 1:ne)
+    mesh%edge_tri = mesh%edge_tri(:, 1:ne)
+
+    ! --- match the listed boundary edges to the topological ones ---
+    nb = count(mesh%edge_tri(2, :) == 0)
+    if (nb /= mesh%nbedge) then
+      write (buf, '(a,i0,a,i0)') 'mesh: the triangles have ', nb, &
+        ' boundary edges but the boundary edge list has ', mesh%nbedge
+      call set_error(st, DS_ERR_MESH, trim(buf))
+      return
+    end if
+    allocate (bedge_of_edge(ne), source=0)
+    allocate (mesh%bedge_edge(nb), mesh%bedge_tri(nb), mesh%bedge_normal(2, nb), &
+              mesh%bedge_length(nb))
+    do j = 1, nb
+      a = mesh%bedge_nodes(1, j)
+      b = mesh%bedge_nodes(2, j)
+      if (min(a, b) < 1 .or. max(a, b) > mesh%nnode) then
+        write (buf, '(a,i0,a,i0)') 'mesh: boundary edge ', j, &
+          ' has a node index outside 1..', mesh%nnode
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        return
+      end if
+      if (mesh%bedge_marker(j) <= 0) then
+        write (buf, '(a,i0,a)') 'mesh: boundary edge ', j, ' has no marker (expected an integer > 0)'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        return
+      end if
+      lo = min(a, b)
+      hi = max(a, b)
+      e = 0
+      do p = head(lo), head(lo) + cnt(lo) - 1
+        if (bucket_other(p) == hi) then
+          e = bucket_edge(p)
+          exit
+        end if
+      end do
+      if (e == 0) then
+        write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
+          ') is not a side of any triangle'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        return
+      end if
+      if (mesh%edge_tri(2, e) /= 0) then
+        write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
+          ') is an interior edge'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        return
+      end if
+      if (bedge_of_edge(e) /= 0) then
+        write (buf, '(a,i0,a,i0)') 'mesh: boundary edge ', j, ' repeats boundary edge ', &
+          bedge_of_edge(e)
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        return
+      end if
+      bedge_of_edge(e) = j
+      t = mesh%edge_tri(1, e)
+      k = edge_local(1, e)
+      ! orient as in the counter-clockwise triangle: the domain lies on the left
+      mesh%bedge_nodes(:, j) = [mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t)]
+      mesh%bedge_edge(j) = e
+      mesh%bedge_tri(j) = t
+      d = mesh%xy(:, mesh%bedge_nodes(2, j)) - mesh%xy(:, mesh%bedge_nodes(1, j))
+      mesh%bedge_length(j) = hypot(d(1), d(2))
+      mesh%bedge_normal(:, j) = [d(2), -d(1)] / mesh%bedge_length(j)
+    end do
+
+    ! --- boundary loops: follow boundary edges head to tail ---
+    allocate (mesh%node_bedge_in(mesh%nnode), mesh%node_bedge_out(mesh%nnode), source=0)
+    do j = 1, nb
+      a = mesh%bedge_nodes(1, j)
+      b = mesh%bedge_nodes(2, j)
+      if (mesh%node_bedge_out(a) /= 0 .or. mesh%node_bedge_in(b) /= 0) then
+        write (buf, '(a,i0,a)') 'mesh: boundary is not a set of simple closed loops at node ', &
+          merge(a, b, mesh%node_bedge_out(a) /= 0), ' (two boundary edges leave or enter it)'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        return
+      end if
+      mesh%node_bedge_out(a) = j
+      mesh%node_bedge_in(b) = j
+    end do
+    allocate (mesh%loop_bedge(nb), mesh%loop_start(nb + 1))
+    allocate (mesh%node_on_boundary(mesh%nnode), mesh%node_is_corner(mesh%nnode))
+    mesh%node_on_boundary = mesh%node_bedge_out /= 0
+    bedge_of_edge = 0            ! reused as "visited" flag per boundary edge
+    p = 0
+    l = 0
+    do start = 1, nb
+      if (bedge_of_edge(start) /= 0) cycle
+      l = l + 1
+      mesh%loop_start(l) = p + 1
+      cur = start
+      steps = 0
+      do
+        p = p + 1
+        steps = steps + 1
+        mesh%loop_bedge(p) = cur
+        bedge_of_edge(cur) = 1
+        nxt = mesh%node_bedge_out(mesh%bedge_nodes(2, cur))
+        if (nxt == start) exit
+        if (nxt == 0 .or. steps > nb) then
+          call set_error(st, DS_ERR_MESH, 'mesh: a boundary loop is not closed')
+          return
+        end if
+        cur = nxt
+      end do
+    end do
+    mesh%nloop = l
+    mesh%loop_start(l + 1) = p + 1
+    mesh%loop_start = mesh%loop_start(1:l + 1)
+
+    ! --- polygon corners ---
+    mesh%node_is_corner = .false.
+    do j = 1, mesh%nnode
+      if (.not. mesh%node_on_boundary(j)) cycle
+      a = mesh%node_bedge_in(j)
+      b = mesh%node_bedge_out(j)
+      din = mesh%xy(:, mesh%bedge_nodes(2, a)) - mesh%xy(:, mesh%bedge_nodes(1, a))
+      dout = mesh%xy(:, mesh%bedge_nodes(2, b)) - mesh%xy(:, mesh%bedge_nodes(1, b))
+      len_in = hypot(din(1), din(2))
+      len_out = hypot(dout(1), dout(2))
+      sin_angle = (din(1) * dout(2) - din(2) * dout(1)) / (len_in * len_out)
+      ! a reversal (dot < 0) with sine ~ 0 is also a corner (a slit tip)
+      mesh%node_is_corner(j) = abs(sin_angle) > corner_sin_tol .or. dot_product(din, dout) < 0.0_dp
+    end do
+  end subroutine mesh_build_topology
+end module dualsig_mesh

@@ -1,0 +1,794 @@
+!> Plain-text mesh files: reader `mesh_read_text` and writer `mesh_write_text`.
+!>
+!> File format (version 1):
+!>
+!>     # comment lines start with '#' and may appear anywhere; blank lines are ignored
+!>     dualsig-mesh 1
+!>     nodes N
+!>     <id> <x> <y>          (N lines, ids 1..N in order)
+!>     triangles T
+!>     <id> <n1> <n2> <n3>   (T lines; counter-clockwise expected; clockwise triangles are reoriented)
+!>     boundary B
+!>     <id> <n1> <n2> <marker>   (B lines; marker integer > 0)
+!>
+!> Details:
+!> - Fields are separated by blanks or tabs; a line holds exactly the fields shown.  A comment
+!>   line is a line whose first non-blank character is '#'.  A trailing carriage return
+!>   (DOS line end) is ignored.  Nothing but comments and blank lines may follow the
+!>   boundary section.
+!> - Integers are written in decimal without a decimal point.  Reals are decimal numbers
+!>   with an optional exponent (1, -0.5, 2.5e-3, 1.0D+00); no NaN or infinity, magnitude at
+!>   most 1e100.  Node, triangle and boundary ids must be 1, 2, 3, ... in order.
+!> - Node indices n1, n2, n3 refer to node ids (1..N).  Two nodes whose coordinates agree
+!>   within geom_rel_tol times the bounding-box diameter (in both x and y) are rejected as
+!>   duplicates; triangles with |area| <= geom_rel_tol * diameter**2 are rejected.
+!> - A clockwise triangle is reoriented by swapping n2 and n3; the reader reports how many
+!>   it reoriented (optional argument `nflipped`), the caller decides whether to warn.
+!> - The boundary section lists every boundary side of the triangulation once, in any order
+!>   and either orientation, with an integer marker > 0 (it selects the boundary
+!>   condition).  The writer lists them with the domain on their left.
+!>
+!> The writer uses ES24.16E3 for coordinates (17 significant digits), so that a written and
+!> re-read mesh has bit-identical coordinates.  It writes the file in place (no temporary
+!> file); if a write fails, the partly written file is deleted.
+module dualsig_mesh_io
+  use, intrinsic :: iso_fortran_env, only: iostat_end, iostat_eor
+  use dualsig_kinds, only: dp, i8, geom_rel_tol
+  use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_IO
+  use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
+  implicit none
+  private
+
+  public :: mesh_read_text, mesh_write_text
+
+  character(len=*), parameter :: magic = 'dualsig-mesh'   !! first word of the header line
+  integer, parameter :: format_version = 1                 !! second word of the header line
+  !> Fields stored per line: one more than the longest record, to detect extra fields.
+  integer, parameter :: max_fields = 5
+  !> Characters of an offending line quoted in error messages.
+  integer, parameter :: echo_len = 60
+  !> Characters read per chunk of a line (lines may be longer).
+  integer, parameter :: chunk_len = 256
+  !> Largest accepted coordinate magnitude: squares of lengths and areas cannot overflow.
+  real(dp), parameter :: max_abs_coord = 1.0e100_dp
+  !> Decimal exponent of max_abs_coord: numbers of a larger order are rejected before conversion.
+  integer, parameter :: max_dec_exponent = 100
+  !> Significant digits of an integer field that a 64-bit integer holds safely.
+  integer, parameter :: max_int_digits = 18
+  !> Cap on an exponent field while it is accumulated (anything larger is out of range anyway).
+  integer, parameter :: exponent_cap = 100000
+  character(len=*), parameter :: real_fmt = '(i0,2(1x,es24.16e3))'
+  character(len=*), parameter :: int4_fmt = '(i0,3(1x,i0))'
+  character(len=*), parameter :: whitespace = ' ' // achar(9)
+
+  !> State of the line reader: the file, the current line and its number.
+  type :: reader_t
+    integer :: unit = -1
+    character(len=:), allocatable :: path
+    character(len=:), allocatable :: line     !! current record (without line end)
+    integer :: lineno = 0                     !! number of the current line in the file
+    integer :: nf = 0                         !! number of fields of the current record
+    integer :: fb(max_fields) = 0             !! first character of field k
+    integer :: fe(max_fields) = 0             !! last character of field k
+  end type reader_t
+
+contains
+
+  !> Read a mesh in the dualsig text format (see the module header) from file `path` and
+  !> build its topology.  `nflipped` (optional) returns the number of clockwise triangles
+  !> that were reoriented.  Errors name the file, the line and what was expected;
+  !> DS_ERR_IO for files that cannot be read, DS_ERR_MESH for invalid content.
+  subroutine mesh_read_text(path, mesh, st, nflipped)
+    character(len=*), intent(in) :: path
+    type(mesh_t), intent(out) :: mesh
+    type(status_t), intent(out) :: st
+    integer, intent(out), optional :: nflipped
+    type(reader_t) :: rd
+    integer :: ios, nflip
+    character(len=256) :: iom
+
+    if (present(nflipped)) nflipped = 0
+    rd%path = path
+    iom = ''
+    open (newunit=rd%unit, file=path, status='old', action='read', form='formatted', &
+          access='sequential', iostat=ios, iomsg=iom)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, "mesh file '" // path // "': cannot open for reading (" // &
+        trim(iom) // "); expected an existing readable file")
+      return
+    end if
+    nflip = 0
+    call read_body(rd, mesh, nflip, st)
+    close (rd%unit, iostat=ios)
+    if (present(nflipped)) nflipped = nflip
+  end subroutine mesh_read_text
+
+  !> Parse the sections of an open mesh file, check the data and build the topology.
+  subroutine read_body(rd, mesh, nflip, st)
+    type(reader_t), intent(inout) :: rd
+    type(mesh_t), intent(inout) :: mesh
+    integer, intent(out) :: nflip
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: node_line(:), tri_line(:), bedge_line(:)
+    integer :: i, k, v, nn, nt, nb, version, istat
+    logical :: found
+    real(dp) :: area, area_tol
+
+    nflip = 0
+    ! --- header ---
+    call next_record(rd, found, st)
+    if (st%code /= 0) return
+    if (.not. found) then
+      if (rd%lineno == 0) then
+        call set_error(st, DS_ERR_MESH, "mesh file '" // rd%path // "': the file is empty or not a " // &
+          "regular file (expected the header line '" // magic // " " // itoa(format_version) // "')")
+      else
+        call set_error(st, DS_ERR_MESH, "mesh file '" // rd%path // "': no data line in its " // &
+          itoa(rd%lineno) // " lines (expected the header line '" // magic // " " // &
+          itoa(format_version) // "')")
+      end if
+      return
+    end if
+    if (rd%nf /= 2 .or. field(rd, 1) /= magic) then
+      call fail(rd, "expected the header line '" // magic // " " // itoa(format_version) // &
+        "', found " // quote(rd%line), st)
+      return
+    end if
+    if (.not. int_field(rd, 2, 'the format version', version, st)) return
+    if (version /= format_version) then
+      call fail(rd, 'unsupported format version ' // itoa(version) // ' (expected ' // &
+        itoa(format_version) // ')', st)
+      return
+    end if
+
+    ! --- nodes ---
+    if (.not. section_header(rd, 'nodes', nn, st)) return
+    allocate (mesh%xy(2, nn), node_line(nn), stat=istat)
+    if (istat /= 0) then
+      call fail(rd, 'cannot allocate ' // itoa(nn) // ' nodes (expected a smaller count)', st)
+      return
+    end if
+    mesh%nnode = nn
+    do i = 1, nn
+      if (.not. data_record(rd, 'nodes', i, nn, 3, '<id> <x> <y>', st)) return
+      node_line(i) = rd%lineno
+      do k = 2, 3
+        if (.not. real_field(rd, k, 'node coordinate', mesh%xy(k - 1, i), st)) return
+      end do
+    end do
+
+    ! --- triangles ---
+    if (.not. section_header(rd, 'triangles', nt, st)) return
+    allocate (mesh%tri(3, nt), tri_line(nt), stat=istat)
+    if (istat /= 0) then
+      call fail(rd, 'cannot allocate ' // itoa(nt) // ' triangles (expected a smaller count)', st)
+      return
+    end if
+    mesh%ntri = nt
+    do i = 1, nt
+      if (.not. data_record(rd, 'triangles', i, nt, 4, '<id> <n1> <n2> <n3>', st)) return
+      tri_line(i) = rd%lineno
+      do k = 2, 4
+        if (.not. node_field(rd, k, nn, mesh%tri(k - 1, i), st)) return
+      end do
+    end do
+
+    ! --- boundary edges ---
+    if (.not. section_header(rd, 'boundary', nb, st)) return
+    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb), bedge_line(nb), stat=istat)
+    if (istat /= 0) then
+      call fail(rd, 'cannot allocate ' // itoa(nb) // ' boundary edges (expected a smaller count)', st)
+      return
+    end if
+    mesh%nbedge = nb
+    do i = 1, nb
+      if (.not. data_record(rd, 'boundary', i, nb, 4, '<id> <n1> <n2> <marker>', st)) return
+      bedge_line(i) = rd%lineno
+      do k = 2, 3
+        if (.not. node_field(rd, k, nn, mesh%bedge_nodes(k - 1, i), st)) return
+      end do
+      if (.not. int_field(rd, 4, 'the boundary marker', v, st)) return
+      if (v <= 0) then
+        call fail(rd, 'boundary edge ' // itoa(i) // ' has marker ' // itoa(v) // &
+          ' (expected an integer > 0)', st)
+        return
+      end if
+      mesh%bedge_marker(i) = v
+    end do
+
+    ! --- only comments may follow ---
+    call next_record(rd, found, st)
+    if (st%code /= 0) return
+    if (found) then
+      call fail(rd, 'unexpected content after the boundary section: ' // quote(rd%line) // &
+        ' (expected the end of the file)', st)
+      return
+    end if
+
+    ! --- geometric checks ---
+    call check_duplicate_nodes(rd, mesh, node_line, st)
+    if (st%code /= 0) return
+    area_tol = geom_rel_tol * mesh_diameter(mesh)**2
+    do i = 1, nt
+      area = mesh_triangle_area(mesh, i)
+      if (abs(area) <= area_tol) then
+        rd%lineno = tri_line(i)
+        call fail(rd, 'triangle ' // itoa(i) // ' has zero area (|area| <= ' // rtoa(area_tol) // &
+          '; expected three non-collinear vertices)', st)
+        return
+      end if
+      if (area < 0.0_dp) then
+        mesh%tri(2:3, i) = mesh%tri([3, 2], i)
+        nflip = nflip + 1
+      end if
+    end do
+
+    call mesh_build_topology(mesh, st)
+    if (st%code /= 0) then
+      if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(7:)
+      call set_error(st, st%code, "mesh file '" // rd%path // "': " // st%msg)
+    end if
+  end subroutine read_body
+
+  !> Write `mesh` to file `path` in the dualsig text format (see the module header),
+  !> replacing an existing file.  On a write error the partial file is deleted.
+  subroutine mesh_write_text(path, mesh, st)
+    character(len=*), intent(in) :: path
+    type(mesh_t), intent(in) :: mesh
+    type(status_t), intent(out) :: st
+    integer :: u, ios, ios2, i
+    character(len=256) :: iom
+
+    if (.not. (allocated(mesh%xy) .and. allocated(mesh%tri) .and. allocated(mesh%bedge_nodes) &
+        .and. allocated(mesh%bedge_marker))) then
+      call set_error(st, DS_ERR_MESH, "mesh file '" // path // &
+        "': nothing to write (expected a mesh with nodes, triangles and boundary edges)")
+      return
+    end if
+    if (size(mesh%xy, 2) < mesh%nnode .or. size(mesh%tri, 2) < mesh%ntri .or. &
+        size(mesh%bedge_nodes, 2) < mesh%nbedge .or. size(mesh%bedge_marker) < mesh%nbedge) then
+      call set_error(st, DS_ERR_MESH, "mesh file '" // path // &
+        "': the mesh arrays are shorter than its counts (expected a consistent mesh_t)")
+      return
+    end if
+    iom = ''
+    open (newunit=u, file=path, status='replace', action='write', form='formatted', &
+          access='sequential', iostat=ios, iomsg=iom)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, "mesh file '" // path // "': cannot open for writing (" // &
+        trim(iom) // ')')
+      return
+    end if
+
+    write (u, '(a,i0,a,i0,a,i0,a)', iostat=ios, iomsg=iom) '# dualsig mesh: ', mesh%nnode, &
+      ' nodes, ', mesh%ntri, ' triangles, ', mesh%nbedge, ' boundary edges'
+    if (ios == 0) write (u, '(a,1x,i0)', iostat=ios, iomsg=iom) magic, format_version
+    if (ios == 0) write (u, '(a)', iostat=ios, iomsg=iom) '# <id> <x> <y>'
+    if (ios == 0) write (u, '(a,1x,i0)', iostat=ios, iomsg=iom) 'nodes', mesh%nnode
+    do i = 1, mesh%nnode
+      if (ios /= 0) exit
+      write (u, real_fmt, iostat=ios, iomsg=iom) i, mesh%xy(:, i)
+    end do
+    if (ios == 0) write (u, '(a)', iostat=ios, iomsg=iom) '# <id> <n1> <n2> <n3>, counter-clockwise'
+    if (ios == 0) write (u, '(a,1x,i0)', iostat=ios, iomsg=iom) 'triangles', mesh%ntri
+    do i = 1, mesh%ntri
+      if (ios /= 0) exit
+      write (u, int4_fmt, iostat=ios, iomsg=iom) i, mesh%tri(:, i)
+    end do
+    if (ios == 0) write (u, '(a)', iostat=ios, iomsg=iom) '# <id> <n1> <n2> <marker>'
+    if (ios == 0) write (u, '(a,1x,i0)', iostat=ios, iomsg=iom) 'boundary', mesh%nbedge
+    do i = 1, mesh%nbedge
+      if (ios /= 0) exit
+      write (u, int4_fmt, iostat=ios, iomsg=iom) i, mesh%bedge_nodes(:, i), mesh%bedge_marker(i)
+    end do
+    if (ios /= 0) then
+      close (u, status='delete', iostat=ios2)
+      call set_error(st, DS_ERR_IO, "mesh file '" // path // "': write failed (" // trim(iom) // &
+        '); the partial file was deleted')
+      return
+    end if
+    close (u, iostat=ios, iomsg=iom)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, "mesh file '" // path // "': close failed (" // trim(iom) // ')')
+    end if
+  end subroutine mesh_write_text
+
+  ! ------------------------------------------------------------------ reading lines
+
+  !> Advance to the next record (a line that is neither blank nor a comment) and split it
+  !> into fields.  found = .false. at the end of the file.
+  subroutine next_record(rd, found, st)
+    type(reader_t), intent(inout) :: rd
+    logical, intent(out) :: found
+    type(status_t), intent(inout) :: st
+    integer :: ios, k
+    character(len=256) :: iom
+
+    found = .false.
+    do
+      call read_line(rd%unit, rd%line, ios, iom)
+      if (ios == iostat_end) return
+      if (ios /= 0) then
+        call set_error(st, DS_ERR_IO, "mesh file '" // rd%path // "', line " // &
+          itoa(rd%lineno + 1) // ': read error (' // trim(iom) // '); expected a text file')
+        return
+      end if
+      rd%lineno = rd%lineno + 1
+      k = verify(rd%line, whitespace)
+      if (k == 0) cycle                      ! blank line
+      if (rd%line(k:k) == '#') cycle         ! comment line
+      exit
+    end do
+    found = .true.
+    call split_fields(rd)
+  end subroutine next_record
+
+  !> Read one line of any length; a carriage return at its end is dropped.  ios is 0, an
+  !> error code, or iostat_end when no line is left.
+  subroutine read_line(u, line, ios, iom)
+    integer, intent(in) :: u
+    character(len=:), allocatable, intent(out) :: line
+    integer, intent(out) :: ios
+    character(len=*), intent(inout) :: iom
+    character(len=chunk_len) :: buf
+    integer :: sz, n
+
+    line = ''
+    do
+      sz = 0
+      read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) buf
+      line = line // buf(1:sz)
+      if (ios == iostat_eor) then
+        ios = 0
+        exit
+      end if
+      if (ios == iostat_end .and. len(line) > 0) then
+        ios = 0                              ! last line without a line end
+        exit
+      end if
+      if (ios /= 0) return
+    end do
+    n = len(line)
+    if (n > 0) then
+      if (line(n:n) == achar(13)) line = line(1:n - 1)
+    end if
+  end subroutine read_line
+
+  !> Split the current line into blank- or tab-separated fields (at most max_fields stored,
+  !> all counted).
+  subroutine split_fields(rd)
+    type(reader_t), intent(inout) :: rd
+    integer :: p, n, b, e
+    rd%nf = 0
+    p = 1
+    n = len(rd%line)
+    do
+      if (p > n) exit
+      b = verify(rd%line(p:), whitespace)
+      if (b == 0) exit
+      b = p + b - 1
+      e = scan(rd%line(b:), whitespace)
+      if (e == 0) then
+        e = n
+      else
+        e = b + e - 2
+      end if
+      rd%nf = rd%nf + 1
+      if (rd%nf <= max_fields) then
+        rd%fb(rd%nf) = b
+        rd%fe(rd%nf) = e
+      end if
+      p = e + 1
+    end do
+  end subroutine split_fields
+
+  !> Text of field k of the current record.
+  function field(rd, k) result(s)
+    type(reader_t), intent(in) :: rd
+    integer, intent(in) :: k
+    character(len=:), allocatable :: s
+    s = rd%line(rd%fb(k):rd%fe(k))
+  end function field
+
+  ! ------------------------------------------------------------------ records
+
+  !> Read a section header '<name> <count>' with count >= 0.
+  logical function section_header(rd, name, count, st) result(ok)
+    type(reader_t), intent(inout) :: rd
+    character(len=*), intent(in) :: name
+    integer, intent(out) :: count
+    type(status_t), intent(inout) :: st
+    logical :: found
+
+    ok = .false.
+    count = 0
+    call next_record(rd, found, st)
+    if (st%code /= 0) return
+    if (.not. found) then
+      call set_error(st, DS_ERR_MESH, "mesh file '" // rd%path // "': unexpected end of file after line " // &
+        itoa(rd%lineno) // " (expected the section header '" // name // " <count>'; truncated file?)")
+      return
+    end if
+    if (rd%nf /= 2 .or. field(rd, 1) /= name) then
+      call fail(rd, "expected the section header '" // name // " <count>', found " // quote(rd%line), st)
+      return
+    end if
+    if (.not. int_field(rd, 2, "the '" // name // "' count", count, st)) return
+    if (count < 0) then
+      call fail(rd, "negative '" // name // "' count " // itoa(count) // ' (expected an integer >= 0)', st)
+      return
+    end if
+    ok = .true.
+  end function section_header
+
+  !> Read data line i of n of a section: `nfield` fields, the first the id i.
+  logical function data_record(rd, section, i, n, nfield, layout, st) result(ok)
+    type(reader_t), intent(inout) :: rd
+    character(len=*), intent(in) :: section, layout
+    integer, intent(in) :: i, n, nfield
+    type(status_t), intent(inout) :: st
+    logical :: found
+    integer :: id
+    character(len=:), allocatable :: first
+
+    ok = .false.
+    call next_record(rd, found, st)
+    if (st%code /= 0) return
+    if (.not. found) then
+      call set_error(st, DS_ERR_MESH, "mesh file '" // rd%path // "': unexpected end of file after line " // &
+        itoa(rd%lineno) // ": the '" // section // "' section announced " // itoa(n) // &
+        ' lines but has ' // itoa(i - 1) // ' (expected entry ' // itoa(i) // " '" // layout // &
+        "'; truncated file?)")
+      return
+    end if
+    first = field(rd, 1)
+    if (first == 'nodes' .or. first == 'triangles' .or. first == 'boundary') then
+      call fail(rd, "found " // quote(rd%line) // " but the '" // section // "' section announced " // &
+        itoa(n) // ' lines and has only ' // itoa(i - 1) // " (expected '" // layout // "')", st)
+      return
+    end if
+    if (rd%nf /= nfield) then
+      call fail(rd, 'expected ' // itoa(nfield) // " fields '" // layout // "' in the '" // section // &
+        "' section, found " // itoa(rd%nf) // ': ' // quote(rd%line), st)
+      return
+    end if
+    if (.not. int_field(rd, 1, 'the id', id, st)) return
+    if (id /= i) then
+      call fail(rd, "id " // itoa(id) // " out of order in the '" // section // "' section (expected " // &
+        itoa(i) // ')', st)
+      return
+    end if
+    ok = .true.
+  end function data_record
+
+  !> Field k of the current record as an integer; `what` names it in the error message.
+  logical function int_field(rd, k, what, v, st) result(ok)
+    type(reader_t), intent(in) :: rd
+    integer, intent(in) :: k
+    character(len=*), intent(in) :: what
+    integer, intent(out) :: v
+    type(status_t), intent(inout) :: st
+    character(len=:), allocatable :: why
+    ok = parse_int(field(rd, k), v, why)
+    if (.not. ok) call fail(rd, 'field ' // itoa(k) // ' (' // what // ') ' // quote(field(rd, k)) // &
+      ' is ' // why // ' (expected an integer)', st)
+  end function int_field
+
+  !> Field k of the current record as a node index in 1..nn.
+  logical function node_field(rd, k, nn, v, st) result(ok)
+    type(reader_t), intent(in) :: rd
+    integer, intent(in) :: k, nn
+    integer, intent(out) :: v
+    type(status_t), intent(inout) :: st
+    ok = int_field(rd, k, 'a node index', v, st)
+    if (.not. ok) return
+    if (v < 1 .or. v > nn) then
+      ok = .false.
+      call fail(rd, 'field ' // itoa(k) // ': node index ' // itoa(v) // ' out of range (expected 1..' // &
+        itoa(nn) // ', the node count)', st)
+    end if
+  end function node_field
+
+  !> Field k of the current record as a real number.
+  logical function real_field(rd, k, what, v, st) result(ok)
+    type(reader_t), intent(in) :: rd
+    integer, intent(in) :: k
+    character(len=*), intent(in) :: what
+    real(dp), intent(out) :: v
+    type(status_t), intent(inout) :: st
+    character(len=:), allocatable :: why
+    ok = parse_real(field(rd, k), v, why)
+    if (.not. ok) call fail(rd, 'field ' // itoa(k) // ' (' // what // ') ' // quote(field(rd, k)) // &
+      ' is ' // why // ' (expected a real number of magnitude <= ' // rtoa(max_abs_coord) // ')', st)
+  end function real_field
+
+  !> Record a content error at the current line of the reader.
+  subroutine fail(rd, what, st)
+    type(reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: what
+    type(status_t), intent(inout) :: st
+    call set_error(st, DS_ERR_MESH, "mesh file '" // rd%path // "', line " // itoa(rd%lineno) // ': ' // what)
+  end subroutine fail
+
+  ! ------------------------------------------------------------------ numbers
+
+  !> Parse a decimal integer [+-]digits that fits a default integer.  On failure `why`
+  !> says what is wrong.
+  logical function parse_int(s, v, why) result(ok)
+    character(len=*), intent(in) :: s
+    integer, intent(out) :: v
+    character(len=:), allocatable, intent(out) :: why
+    integer :: p, q, k
+    integer(i8) :: w
+
+    ok = .false.
+    v = 0
+    why = 'not a number'
+    p = 1
+    if (len(s) == 0) return
+    if (s(1:1) == '+' .or. s(1:1) == '-') p = 2
+    if (p > len(s)) return
+    if (verify(s(p:), '0123456789') /= 0) then
+      if (verify(s(p:), '0123456789.eEdD+-') == 0) why = 'not an integer'
+      return
+    end if
+    q = verify(s(p:), '0')                   ! first significant digit
+    if (q /= 0) then
+      if (len(s) - (p + q - 1) + 1 > max_int_digits) then
+        why = 'too large'
+        return
+      end if
+    end if
+    w = 0
+    do k = p, len(s)
+      w = 10 * w + (iachar(s(k:k)) - iachar('0'))
+    end do
+    if (s(1:1) == '-') w = -w
+    if (abs(w) > int(huge(v), i8)) then
+      why = 'too large'
+      return
+    end if
+    v = int(w)
+    ok = .true.
+  end function parse_int
+
+  !> Parse a decimal real [+-](digits[.digits]|.digits)[(e|E|d|D)[+-]digits] of magnitude
+  !> <= max_abs_coord.  The order of magnitude is checked before the conversion, so that no
+  !> floating-point overflow can occur.  On failure `why` says what is wrong.
+  logical function parse_real(s, v, why) result(ok)
+    character(len=*), intent(in) :: s
+    real(dp), intent(out) :: v
+    character(len=:), allocatable, intent(out) :: why
+    character(len=*), parameter :: digits = '0123456789'
+    integer :: p, n, nint_digits, nfrac_digits, first_nz, pos, expo, esign, ios
+    logical :: seen_point
+
+    ok = .false.
+    v = 0.0_dp
+    why = 'not a number'
+    n = len(s)
+    p = 1
+    if (n == 0) return
+    if (s(1:1) == '+' .or. s(1:1) == '-') p = 2
+    ! mantissa
+    nint_digits = 0
+    nfrac_digits = 0
+    first_nz = 0          ! position (counted over the mantissa digits) of the first nonzero digit
+    pos = 0
+    seen_point = .false.
+    do while (p <= n)
+      if (index(digits, s(p:p)) > 0) then
+        pos = pos + 1
+        if (first_nz == 0 .and. s(p:p) /= '0') first_nz = pos
+        if (seen_point) then
+          nfrac_digits = nfrac_digits + 1
+        else
+          nint_digits = nint_digits + 1
+        end if
+      else if (s(p:p) == '.' .and. .not. seen_point) then
+        seen_point = .true.
+      else
+        exit
+      end if
+      p = p + 1
+    end do
+    if (nint_digits + nfrac_digits == 0) return
+    ! exponent
+    expo = 0
+    if (p <= n) then
+      if (index('eEdD', s(p:p)) == 0) return
+      p = p + 1
+      esign = 1
+      if (p <= n) then
+        if (s(p:p) == '+' .or. s(p:p) == '-') then
+          if (s(p:p) == '-') esign = -1
+          p = p + 1
+        end if
+      end if
+      if (p > n) return
+      if (verify(s(p:), digits) /= 0) return
+      do while (p <= n)
+        expo = min(exponent_cap, 10 * expo + (iachar(s(p:p)) - iachar('0')))
+        p = p + 1
+      end do
+      expo = esign * expo
+    end if
+    ! order of magnitude: the first nonzero digit stands for 10**(nint_digits - first_nz)
+    if (first_nz > 0) then
+      if (nint_digits - first_nz + expo > max_dec_exponent) then
+        why = 'out of range'
+        return
+      end if
+    end if
+    read (s, *, iostat=ios) v
+    if (ios /= 0) return
+    if (abs(v) > max_abs_coord) then
+      why = 'out of range'
+      return
+    end if
+    ok = .true.
+  end function parse_real
+
+  ! ------------------------------------------------------------------ duplicates
+
+  !> Reject two nodes whose coordinates agree within tol = geom_rel_tol * diameter in both
+  !> x and y.  The nodes are bucketed on a grid of cells of width 2 tol (so that two such
+  !> nodes lie in the same or in adjacent cells), the cells are sorted, and each node is
+  !> compared with the nodes of its own and the neighbouring cells only: O(N log N).
+  subroutine check_duplicate_nodes(rd, mesh, node_line, st)
+    type(reader_t), intent(inout) :: rd
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: node_line(:)
+    type(status_t), intent(inout) :: st
+    integer(i8), allocatable :: kx(:), ky(:)
+    integer, allocatable :: perm(:)
+    integer :: nn, i, j, p, q, dx
+    real(dp) :: tol, cell, xmin, ymin
+
+    nn = mesh%nnode
+    if (nn < 2) return
+    tol = geom_rel_tol * mesh_diameter(mesh)
+    if (.not. (tol > 0.0_dp)) then
+      call report(1, 2)                      ! all nodes coincide
+      return
+    end if
+    cell = 2.0_dp * tol
+    xmin = minval(mesh%xy(1, 1:nn))
+    ymin = minval(mesh%xy(2, 1:nn))
+    allocate (kx(nn), ky(nn), perm(nn))
+    do i = 1, nn
+      kx(i) = floor((mesh%xy(1, i) - xmin) / cell, i8)
+      ky(i) = floor((mesh%xy(2, i) - ymin) / cell, i8)
+      perm(i) = i
+    end do
+    call merge_sort_pairs(kx, ky, perm)
+    do p = 1, nn
+      i = perm(p)
+      do dx = 0, 1
+        q = lower_bound(kx, ky, perm, kx(i) + dx, ky(i) - 1)
+        do while (q <= nn)
+          j = perm(q)
+          if (key_less(kx(i) + dx, ky(i) + 1, kx(j), ky(j))) exit
+          if (j /= i) then
+            if (abs(mesh%xy(1, i) - mesh%xy(1, j)) <= tol .and. &
+                abs(mesh%xy(2, i) - mesh%xy(2, j)) <= tol) then
+              call report(min(i, j), max(i, j))
+              return
+            end if
+          end if
+          q = q + 1
+        end do
+      end do
+    end do
+
+  contains
+
+    !> Error: node b repeats node a.
+    subroutine report(a, b)
+      integer, intent(in) :: a, b
+      rd%lineno = node_line(b)
+      call fail(rd, 'node ' // itoa(b) // ' duplicates node ' // itoa(a) // ' (line ' // &
+        itoa(node_line(a)) // '): same coordinates within ' // rtoa(tol) // &
+        ' (expected distinct node coordinates)', st)
+    end subroutine report
+  end subroutine check_duplicate_nodes
+
+  !> Lexicographic order of integer pairs: (a1,a2) < (b1,b2).
+  pure logical function key_less(a1, a2, b1, b2) result(less)
+    integer(i8), intent(in) :: a1, a2, b1, b2
+    less = a1 < b1 .or. (a1 == b1 .and. a2 < b2)
+  end function key_less
+
+  !> First position q of the sorted permutation with key(perm(q)) >= (c1,c2) (size+1 if none).
+  pure integer function lower_bound(kx, ky, perm, c1, c2) result(lo)
+    integer(i8), intent(in) :: kx(:), ky(:), c1, c2
+    integer, intent(in) :: perm(:)
+    integer :: hi, mid
+    lo = 1
+    hi = size(perm) + 1
+    do while (lo < hi)
+      mid = lo + (hi - lo) / 2
+      if (key_less(kx(perm(mid)), ky(perm(mid)), c1, c2)) then
+        lo = mid + 1
+      else
+        hi = mid
+      end if
+    end do
+  end function lower_bound
+
+  !> Sort the permutation `perm` by the pairs (kx, ky) lexicographically: bottom-up merge
+  !> sort, O(N log N), stable.
+  pure subroutine merge_sort_pairs(kx, ky, perm)
+    integer(i8), intent(in) :: kx(:), ky(:)
+    integer, intent(inout) :: perm(:)
+    integer, allocatable :: tmp(:)
+    integer :: n, width, lo, mid, hi, a, b, k
+    n = size(perm)
+    allocate (tmp(n))
+    width = 1
+    do while (width < n)
+      lo = 1
+      do while (lo <= n)
+        mid = min(lo + width, n + 1)
+        hi = min(lo + 2 * width, n + 1)
+        a = lo
+        b = mid
+        do k = lo, hi - 1
+          if (a < mid .and. b < hi) then
+            if (key_less(kx(perm(b)), ky(perm(b)), kx(perm(a)), ky(perm(a)))) then
+              tmp(k) = perm(b)
+              b = b + 1
+            else
+              tmp(k) = perm(a)
+              a = a + 1
+            end if
+          else if (a < mid) then
+            tmp(k) = perm(a)
+            a = a + 1
+          else
+            tmp(k) = perm(b)
+            b = b + 1
+          end if
+        end do
+        lo = hi
+      end do
+      perm = tmp
+      width = 2 * width
+    end do
+  end subroutine merge_sort_pairs
+
+  ! ------------------------------------------------------------------ text helpers
+
+  !> Decimal text of an integer.
+  pure function itoa(i) result(s)
+    integer, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=24) :: buf
+    write (buf, '(i0)') i
+    s = trim(buf)
+  end function itoa
+
+  !> Short text of a real.
+  pure function rtoa(x) result(s)
+    real(dp), intent(in) :: x
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    write (buf, '(es10.3e3)') x
+    s = trim(adjustl(buf))
+  end function rtoa
+
+  !> The text in quotes, cut to echo_len characters, control characters shown as '?'.
+  pure function quote(text) result(s)
+    character(len=*), intent(in) :: text
+    character(len=:), allocatable :: s
+    integer :: k, c, n
+    n = min(len(text), echo_len)
+    s = text(1:n)
+    do k = 1, n
+      c = iachar(s(k:k))
+      if (c < iachar(' ') .or. c > iachar('~')) s(k:k) = '?'
+    end do
+    if (len(text) > echo_len) s = s // '...'
+    s = "'" // s // "'"
+  end function quote
+end module dualsig_mesh_io

@@ -1,0 +1,115 @@
+!> The primal problems P1 and P2 discretised by continuous P1 elements (Section 2):
+!> the matrix, the load vector, the convex set K_ih as bounds per node, and the solve.
+!>
+!>   P1: A = K + M (A_ij = (phi_i, phi_j)_1), v_j >= 0 at every boundary node.
+!>   P2: A = K,  v_j = 0 at nodes on the closure of Gamma_u, v_j >= 0 at the other nodes
+!>       of Gamma_a (the reading notes correct the print, which says Gamma_u twice).
+module dualsig_problem_primal
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: scalar_field
+  use dualsig_mesh, only: mesh_t
+  use dualsig_sparse, only: csr_t
+  use dualsig_quadrature, only: tri_rule_t
+  use dualsig_assembly_p1, only: assemble_p1_operator, assemble_load
+  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
+  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
+  implicit none
+  private
+
+  public :: primal_system_t, primal_constraints, primal_assemble, PROBLEM_P1, PROBLEM_P2
+
+  integer, parameter :: PROBLEM_P1 = 1   !! -Lap u + u = f, Signorini on all of Gamma
+  integer, parameter :: PROBLEM_P2 = 2   !! -Lap u = f, u = 0 on Gamma_u, Signorini on Gamma_a
+
+  type :: primal_system_t
+    integer :: problem = PROBLEM_P2
+    type(csr_t) :: a                     !! K + M (P1) or K (P2)
+    real(dp), allocatable :: load(:)     !! F_j = (f, phi_j)_0
+    integer, allocatable :: kind(:)      !! BOUND_FREE / BOUND_LOWER / BOUND_FIXED per node
+    real(dp), allocatable :: bnd(:)      !! bound value per node (0 for K_1h, K_2h)
+  end type primal_system_t
+
+contains
+
+  !> Bounds per node describing K_1h (P1) or K_2h (P2).  `gamma_u` and `gamma_a` list the
+  !> boundary markers of the two parts (zeros are unused slots).  Every marker present
+  !> on the mesh must be named exactly once; for P2, Gamma_u must contain an edge
+  !> (coercivity); for P1, Gamma_u must be empty.
+  subroutine primal_constraints(mesh, problem, gamma_u, gamma_a, kind, bnd, st)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: problem
+    integer, intent(in) :: gamma_u(:), gamma_a(:)
+    integer, allocatable, intent(out) :: kind(:)
+    real(dp), allocatable, intent(out) :: bnd(:)
+    type(status_t), intent(out) :: st
+    integer :: j, m, nu
+    character(len=200) :: buf
+
+    allocate (kind(mesh%nnode), source=BOUND_FREE)
+    allocate (bnd(mesh%nnode), source=0.0_dp)
+    do j = 1, size(gamma_u)
+      if (gamma_u(j) /= 0 .and. any(gamma_a == gamma_u(j))) then
+        write (buf, '(a,i0,a)') 'boundary marker ', gamma_u(j), ' is listed in both Gamma_u and Gamma_a'
+        call set_error(st, DS_ERR_INPUT, trim(buf))
+        return
+      end if
+    end do
+    do j = 1, size(gamma_u)
+      if (gamma_u(j) > 0 .and. .not. any(mesh%bedge_marker == gamma_u(j))) then
+        write (buf, '(a,i0,a)') 'Gamma_u marker ', gamma_u(j), ' does not occur on the mesh boundary'
+        call set_error(st, DS_ERR_INPUT, trim(buf))
+        return
+      end if
+    end do
+    do j = 1, size(gamma_a)
+      if (gamma_a(j) > 0 .and. .not. any(mesh%bedge_marker == gamma_a(j))) then
+        write (buf, '(a,i0,a)') 'Gamma_a marker ', gamma_a(j), ' does not occur on the mesh boundary'
+        call set_error(st, DS_ERR_INPUT, trim(buf))
+        return
+      end if
+    end do
+    nu = 0
+    do j = 1, mesh%nbedge
+      m = mesh%bedge_marker(j)
+      if (any(gamma_u == m)) then
+        nu = nu + 1
+      else if (.not. any(gamma_a == m)) then
+        write (buf, '(a,i0,a,i0,a)') 'boundary marker ', m, ' (boundary edge ', j, &
+          ') is named neither in Gamma_u nor in Gamma_a'
+        call set_error(st, DS_ERR_INPUT, trim(buf))
+        return
+      end if
+    end do
+    if (problem == PROBLEM_P1 .and. nu > 0) then
+      call set_error(st, DS_ERR_INPUT, 'problem P1 has Signorini conditions on all of Gamma: ' // &
+                     'Gamma_u must be empty')
+      return
+    end if
+    if (problem == PROBLEM_P2 .and. nu == 0) then
+      call set_error(st, DS_ERR_INPUT, 'problem P2 needs a non-empty Gamma_u (u = 0 there)')
+      return
+    end if
+    ! Signorini nodes first, then the closure of Gamma_u overrides them with u = 0.
+    do j = 1, mesh%nbedge
+      if (.not. any(gamma_u == mesh%bedge_marker(j))) kind(mesh%bedge_nodes(:, j)) = BOUND_LOWER
+    end do
+    do j = 1, mesh%nbedge
+      if (any(gamma_u == mesh%bedge_marker(j))) kind(mesh%bedge_nodes(:, j)) = BOUND_FIXED
+    end do
+  end subroutine primal_constraints
+
+  !> Matrix and load vector of the primal problem: A = K + M for P1, K for P2 (no mass
+  !> matrix), F_j = (f, phi_j)_0 with the quadrature `rule`.
+  subroutine primal_assemble(mesh, problem, f, rule, sys)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: problem
+    procedure(scalar_field) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(primal_system_t), intent(inout) :: sys
+    sys%problem = problem
+    call assemble_p1_operator(mesh, merge(1.0_dp, 0.0_dp, problem == PROBLEM_P1), sys%a)
+    if (allocated(sys%load)) deallocate (sys%load)
+    allocate (sys%load(mesh%nnode))
+    call assemble_load(mesh, f, rule, sys%load)
+  end subroutine primal_assemble
+end module dualsig_problem_primal

@@ -1,0 +1,162 @@
+!> Projected SOR ("Gauss-Seidel with constraints", Section 2 of the paper) for the
+!> bound-constrained quadratic programme
+!>
+!>     minimise 1/2 x^T A x - F^T x   subject to   x_i free        (kind(i) = BOUND_FREE)
+!>                                                 x_i >= bnd(i)   (kind(i) = BOUND_LOWER)
+!>                                                 x_i  = bnd(i)   (kind(i) = BOUND_FIXED)
+!>
+!> with A symmetric positive definite in CSR form.  One sweep updates, for i = 1..n,
+!>     x_i <- P_i( x_i + omega (F_i - (A x)_i) / A_ii ),
+!> where P_i is the projection on the admissible interval; omega = 1 is the paper's
+!> algorithm (the printed projection for P2 applies to Gamma_a: see the reading notes).
+!>
+!> Stopping test: the relative KKT residual (`kkt_residual`) <= tol.
+module dualsig_solver_psor
+  use dualsig_kinds, only: dp
+  use dualsig_sparse, only: csr_t, csr_matvec
+  use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
+                            DS_WARN_NOT_CONVERGED
+  implicit none
+  private
+
+  public :: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
+  public :: psor_settings_t, psor_result_t
+  public :: psor_solve, project_sor_sweep, kkt_residual
+
+  integer, parameter :: BOUND_FREE = 0    !! unconstrained unknown
+  integer, parameter :: BOUND_LOWER = 1   !! x_i >= bnd(i)
+  integer, parameter :: BOUND_FIXED = 2   !! x_i  = bnd(i)
+
+  type :: psor_settings_t
+    real(dp) :: omega = 1.0_dp        !! relaxation parameter in (0, 2)
+    real(dp) :: tol = 1.0e-10_dp      !! tolerance on the relative KKT residual
+    integer :: max_iter = 100000      !! maximum number of sweeps
+    integer :: check_every = 10       !! sweeps between two residual evaluations
+  end type psor_settings_t
+
+  type :: psor_result_t
+    integer :: iterations = 0         !! sweeps performed
+    real(dp) :: kkt_residual = 0.0_dp !! relative KKT residual of the returned x
+    logical :: converged = .false.    !! kkt_residual <= tol
+  end type psor_result_t
+
+contains
+
+  !> Projected SOR from the start x (projected on the constraints first).  On return
+  !> x is the last iterate; `res` reports sweeps, the final residual and convergence.
+  !> st: DS_WARN_NOT_CONVERGED when max_iter is reached, DS_ERR_INPUT for bad settings,
+  !> DS_ERR_NUMERIC when the iterate becomes non-finite.
+  subroutine psor_solve(a, f, kind, bnd, x, settings, res, st)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(inout) :: x(:)
+    type(psor_settings_t), intent(in) :: settings
+    type(psor_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    real(dp), allocatable :: work(:)
+    character(len=120) :: buf
+    integer :: it
+
+    if (.not. (settings%omega > 0.0_dp .and. settings%omega < 2.0_dp)) then
+      write (buf, '(a,es10.3)') 'psor: omega must lie in (0, 2), got ', settings%omega
+      call set_error(st, DS_ERR_INPUT, trim(buf))
+      return
+    end if
+    if (settings%max_iter < 0 .or. settings%check_every < 1 .or. .not. settings%tol >= 0.0_dp) then
+      call set_error(st, DS_ERR_INPUT, 'psor: need max_iter >= 0, check_every >= 1, tol >= 0')
+      return
+    end if
+    if (any(a%val(a%diag) <= 0.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, 'psor: the matrix has a non-positive diagonal entry')
+      return
+    end if
+    allocate (work(a%n))
+    where (kind == BOUND_FIXED) x = bnd
+    where (kind == BOUND_LOWER) x = max(x, bnd)
+    res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work)
+    res%converged = res%kkt_residual <= settings%tol
+    it = 0
+    do while (.not. res%converged .and. it < settings%max_iter)
+      call project_sor_sweep(a, f, kind, bnd, settings%omega, x)
+      it = it + 1
+      if (mod(it, settings%check_every) == 0 .or. it == settings%max_iter) then
+        res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work)
+        if (.not. (res%kkt_residual <= huge(1.0_dp))) then
+          call set_error(st, DS_ERR_NUMERIC, 'psor: the iterate is no longer finite')
+          res%iterations = it
+          return
+        end if
+        res%converged = res%kkt_residual <= settings%tol
+      end if
+    end do
+    res%iterations = it
+    if (.not. res%converged) then
+      write (buf, '(a,i0,a,es9.2,a,es9.2)') 'psor: not converged after ', it, &
+        ' sweeps: KKT residual ', res%kkt_residual, ' > tol ', settings%tol
+      call set_warning(st, DS_WARN_NOT_CONVERGED, trim(buf))
+    end if
+  end subroutine psor_solve
+
+  !> One projected SOR sweep in the natural order i = 1..n (fixed unknowns untouched).
+  pure subroutine project_sor_sweep(a, f, kind, bnd, omega, x)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(in) :: omega
+    real(dp), intent(inout) :: x(:)
+    integer :: i, p
+    real(dp) :: r, xi
+    do i = 1, a%n
+      if (kind(i) == BOUND_FIXED) cycle
+      r = f(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        r = r - a%val(p) * x(a%col(p))
+      end do
+      xi = x(i) + omega * r / a%val(a%diag(i))
+      if (kind(i) == BOUND_LOWER) xi = max(xi, bnd(i))
+      x(i) = xi
+    end do
+  end subroutine project_sor_sweep
+
+  !> Relative KKT residual || r ||_2 / || F ||_2 over the unknowns that are not fixed,
+  !> where g = A x - F and
+  !>     r_i = g_i                           for free unknowns,
+  !>     r_i = min(g_i, A_ii (x_i - bnd_i))  for lower-bounded unknowns
+  !> (the natural residual of the diagonally scaled problem: zero exactly at the KKT
+  !> point, in the units of F, hence invariant under scaling of F, A and x).
+  !> When F vanishes on the unknowns that are not fixed the absolute norm is returned.
+  !> `work` (size n) is scratch space.
+  real(dp) function kkt_residual(a, f, kind, bnd, x, work) result(rel)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(in) :: x(:)
+    real(dp), intent(inout) :: work(:)
+    real(dp) :: num, den, r
+    integer :: i
+    call csr_matvec(a, x, work)
+    num = 0.0_dp
+    den = 0.0_dp
+    do i = 1, a%n
+      select case (kind(i))
+      case (BOUND_FREE)
+        r = work(i) - f(i)
+      case (BOUND_LOWER)
+        r = min(work(i) - f(i), a%val(a%diag(i)) * (x(i) - bnd(i)))
+      case default
+        cycle
+      end select
+      num = num + r * r
+      den = den + f(i) * f(i)
+    end do
+    if (den > 0.0_dp) then
+      rel = sqrt(num / den)
+    else
+      rel = sqrt(num)
+    end if
+  end function kkt_residual
+end module dualsig_solver_psor

@@ -1,0 +1,147 @@
+!> Compressed sparse row (CSR) matrices.
+!>
+!> Rows and columns are 1-based; the columns of every row are sorted increasingly and
+!> contain the diagonal (FE patterns always do), whose position is kept in `diag`.
+!> Symmetric matrices store both triangles.
+module dualsig_sparse
+  use dualsig_kinds, only: dp
+  implicit none
+  private
+
+  public :: csr_t, csr_pattern_from_edges, csr_add, csr_get, csr_matvec, csr_is_symmetric, &
+            csr_nnz
+
+  type :: csr_t
+    integer :: n = 0                     !! number of rows = number of columns
+    integer, allocatable :: rowptr(:)    !! (n+1) row k is val(rowptr(k):rowptr(k+1)-1)
+    integer, allocatable :: col(:)       !! (nnz) column indices, sorted within each row
+    integer, allocatable :: diag(:)      !! (n) position of the diagonal entry of each row
+    real(dp), allocatable :: val(:)      !! (nnz) values
+  end type csr_t
+
+contains
+
+  !> Number of stored entries.
+  pure integer function csr_nnz(a)
+    type(csr_t), intent(in) :: a
+    csr_nnz = a%rowptr(a%n + 1) - 1
+  end function csr_nnz
+
+  !> Pattern of the graph "node i couples with itself and with its edge neighbours",
+  !> values zero.  `edges(2, nedge)` lists each undirected edge once.  Linear time.
+  subroutine csr_pattern_from_edges(n, edges, a)
+    integer, intent(in) :: n
+    integer, intent(in) :: edges(:,:)
+    type(csr_t), intent(out) :: a
+    integer, allocatable :: fill(:)
+    integer :: e, i, j, k, p, tmp
+    a%n = n
+    allocate (a%rowptr(n + 1), a%diag(n), fill(n))
+    a%rowptr = 0
+    a%rowptr(1) = 1
+    fill = 1                               ! the diagonal
+    do e = 1, size(edges, 2)
+      fill(edges(1, e)) = fill(edges(1, e)) + 1
+      fill(edges(2, e)) = fill(edges(2, e)) + 1
+    end do
+    do i = 1, n
+      a%rowptr(i + 1) = a%rowptr(i) + fill(i)
+    end do
+    allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1))
+    a%val = 0.0_dp
+    fill = 0
+    do i = 1, n
+      a%col(a%rowptr(i)) = i
+      fill(i) = 1
+    end do
+    do e = 1, size(edges, 2)
+      i = edges(1, e)
+      j = edges(2, e)
+      a%col(a%rowptr(i) + fill(i)) = j
+      fill(i) = fill(i) + 1
+      a%col(a%rowptr(j) + fill(j)) = i
+      fill(j) = fill(j) + 1
+    end do
+    ! sort each (short) row by insertion sort and record the diagonal
+    do i = 1, n
+      do p = a%rowptr(i) + 1, a%rowptr(i + 1) - 1
+        tmp = a%col(p)
+        k = p - 1
+        do while (k >= a%rowptr(i))
+          if (a%col(k) <= tmp) exit
+          a%col(k + 1) = a%col(k)
+          k = k - 1
+        end do
+        a%col(k + 1) = tmp
+      end do
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (a%col(p) == i) a%diag(i) = p
+      end do
+    end do
+  end subroutine csr_pattern_from_edges
+
+  !> a(i, j) += v.  The entry must be in the pattern (returns ok = .false. otherwise).
+  pure subroutine csr_add(a, i, j, v, ok)
+    type(csr_t), intent(inout) :: a
+    integer, intent(in) :: i, j
+    real(dp), intent(in) :: v
+    logical, intent(out) :: ok
+    integer :: p
+    ok = .false.
+    do p = a%rowptr(i), a%rowptr(i + 1) - 1
+      if (a%col(p) == j) then
+        a%val(p) = a%val(p) + v
+        ok = .true.
+        return
+      end if
+    end do
+  end subroutine csr_add
+
+  !> The value a(i, j) (zero when the entry is not stored).
+  pure real(dp) function csr_get(a, i, j) result(v)
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: i, j
+    integer :: p
+    v = 0.0_dp
+    do p = a%rowptr(i), a%rowptr(i + 1) - 1
+      if (a%col(p) == j) then
+        v = a%val(p)
+        return
+      end if
+    end do
+  end function csr_get
+
+  !> y = A x.
+  pure subroutine csr_matvec(a, x, y)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: x(:)
+    real(dp), intent(out) :: y(:)
+    integer :: i, p
+    real(dp) :: s
+    do i = 1, a%n
+      s = 0.0_dp
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s + a%val(p) * x(a%col(p))
+      end do
+      y(i) = s
+    end do
+  end subroutine csr_matvec
+
+  !> True when |a(i,j) - a(j,i)| <= tol * max|a| for every stored entry.
+  pure logical function csr_is_symmetric(a, tol) result(sym)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: tol
+    integer :: i, p
+    real(dp) :: scale
+    scale = maxval(abs(a%val))
+    sym = .true.
+    do i = 1, a%n
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (abs(a%val(p) - csr_get(a, a%col(p), i)) > tol * scale) then
+          sym = .false.
+          return
+        end if
+      end do
+    end do
+  end function csr_is_symmetric
+end module dualsig_sparse

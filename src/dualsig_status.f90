@@ -1,0 +1,55 @@
+!> Error reporting for library code: a status code plus a message.
+!>
+!> Library procedures never stop the program.  They take a `type(status_t), intent(out)`
+!> argument, set `code` (0 = success) and, on failure, a message that names the file,
+!> the item and what was expected.  The driver turns a non-zero code into an exit status.
+module dualsig_status
+  implicit none
+  private
+
+  public :: status_t, set_error, set_warning, is_ok
+  public :: DS_OK, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT, DS_ERR_MESH, DS_ERR_IO, &
+            DS_ERR_NUMERIC, DS_ERR_LAPACK
+
+  !> Status codes.  Codes > 0 and < 100 are warnings (the result exists but is
+  !> not fully trustworthy); codes >= 100 are errors (no result).
+  integer, parameter :: DS_OK = 0                   !! success
+  integer, parameter :: DS_WARN_NOT_CONVERGED = 1   !! iteration limit reached
+  integer, parameter :: DS_ERR_INPUT = 100          !! invalid argument or namelist value
+  integer, parameter :: DS_ERR_MESH = 101           !! malformed or unsupported mesh
+  integer, parameter :: DS_ERR_IO = 102             !! file could not be read or written
+  integer, parameter :: DS_ERR_NUMERIC = 103        !! breakdown, NaN, divergence
+  integer, parameter :: DS_ERR_LAPACK = 104         !! LAPACK returned info /= 0
+
+  type :: status_t
+    integer :: code = DS_OK                     !! DS_OK, a warning or an error code
+    character(len=:), allocatable :: msg        !! human-readable explanation
+  end type status_t
+
+contains
+
+  !> Record an error (code >= 100) with its message.
+  pure subroutine set_error(st, code, msg)
+    type(status_t), intent(inout) :: st
+    integer, intent(in) :: code
+    character(len=*), intent(in) :: msg
+    st%code = code
+    st%msg = msg
+  end subroutine set_error
+
+  !> Record a warning unless an error is already recorded.
+  pure subroutine set_warning(st, code, msg)
+    type(status_t), intent(inout) :: st
+    integer, intent(in) :: code
+    character(len=*), intent(in) :: msg
+    if (st%code >= DS_ERR_INPUT) return
+    st%code = code
+    st%msg = msg
+  end subroutine set_warning
+
+  !> True when no error was recorded (warnings count as ok).
+  pure logical function is_ok(st)
+    type(status_t), intent(in) :: st
+    is_ok = st%code < DS_ERR_INPUT
+  end function is_ok
+end module dualsig_status
