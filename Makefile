@@ -112,7 +112,7 @@ dualsig_tests_OTHER_INCS := -I$(CURDIR)/build/debug/mod
 check: deps
 	@$(MAKE) BUILD=debug all
 	@cd test && $(MAKE) -f ../Makefile PFUNIT_DIR=$(PFUNIT_DIR) dualsig_tests
-	@cd test && ./dualsig_tests
+	@cd test && DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./dualsig_tests
 $(eval $(call make_pfunit_test,dualsig_tests))
 else
 check: deps

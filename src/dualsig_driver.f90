@@ -14,7 +14,7 @@ module dualsig_driver
   use dualsig_mesh_generate, only: mesh_rectangle, mesh_lshape, mesh_holed_square
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_mesh_io, only: mesh_read_text
-  use dualsig_mesh_quality, only: mesh_quality_t, mesh_quality
+  use dualsig_mesh_quality, only: mesh_quality_t, mesh_quality, mesh_quality_report
   use dualsig_quadrature, only: tri_rule_t, tri_rule
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, BOUND_FIXED
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
@@ -80,6 +80,7 @@ contains
     type(status_t), intent(out) :: st
     integer, intent(in) :: unit
     type(table_t), intent(out), optional :: table
+    type(run_config_t) :: resolved
     type(scene_t) :: scene
     type(mesh_t) :: mesh, finer
     type(primal_system_t) :: sys
@@ -156,6 +157,7 @@ contains
 
     write (unit, '(a)') 'dualsig: run "' // trim(title) // '" (scene ' // trim(scene%name) // &
       ', ' // trim(cfg%source_file) // ' line ' // itoa(cfg%line) // ')'
+    call mesh_quality_report(q0, unit)
     write (unit, '(a)') table_format_header(tab)
     do level = 1, cfg%levels
       if (level > 1) then
@@ -254,11 +256,18 @@ contains
       'problem P' // itoa(scene%problem) // '; err_u_H1 is ' // norm_name // ' of u - u_h (the energy norm)', &
       parts, &
       'coarse mesh: ' // itoa(q0%nnode) // ' nodes, ' // itoa(q0%ntri) // ' triangles, ' // &
-        itoa(q0%nloop) // ' boundary loop(s), min angle ' // rtoa(q0%min_angle_deg) // ' deg', &
+        itoa(q0%nloop) // ' boundary loop(s), min angle ' // rtoa(q0%min_angle_deg) // &
+        ' deg, max side ratio in a triangle ' // rtoa(q0%max_tri_side_ratio) // &
+        ' (uniform refinement keeps both)', &
       'h = longest side; ndof = unknowns not fixed by Gamma_u; primal_s = wall time of the ' // &
         'solve; rates = observed orders between levels', &
       'namelist (resolved):']
-    header = [header, config_echo(cfg)]
+    resolved = cfg
+    resolved%gamma_u_markers = 0
+    resolved%gamma_a_markers = 0
+    resolved%gamma_u_markers(1:size(gamma_u)) = gamma_u
+    resolved%gamma_a_markers(1:size(gamma_a)) = gamma_a
+    header = [header, config_echo(resolved)]
     if (nonconverged > 0) then
       write (line, '(a,i0,a)') 'WARNING: ', nonconverged, ' level(s) stopped at max_iter (see kkt_residual)'
       header = [header, line]

@@ -633,12 +633,22 @@ contains
     s = trim(buf)
   end function itoa
 
-  pure function rtoa(x) result(s)
+  !> The shortest decimal form of x that reads back to the same value.
+  function rtoa(x) result(s)
     real(dp), intent(in) :: x
     character(len=:), allocatable :: s
-    character(len=32) :: buf
-    write (buf, '(g0)') x
+    character(len=40) :: buf, fmt
+    real(dp) :: back
+    integer :: d, ios
+    do d = 1, 17
+      write (fmt, '(a,i0,a,i0,a)') '(es', d + 8, '.', d, 'e3)'
+      write (buf, fmt) x
+      read (buf, *, iostat=ios) back
+      if (ios == 0 .and. back == x) exit
+    end do
     s = trim(adjustl(buf))
+    ! drop a zero exponent and trailing zeros of the mantissa: 1.5E+000 -> 1.5
+    if (index(s, 'E+000') > 0) s = s(1:index(s, 'E+000') - 1)
   end function rtoa
 
   pure function ltoa(l) result(s)

@@ -60,6 +60,8 @@ module dualsig_mesh_io
   character(len=*), parameter :: real_fmt = '(i0,2(1x,es24.16e3))'
   character(len=*), parameter :: int4_fmt = '(i0,3(1x,i0))'
   character(len=*), parameter :: whitespace = ' ' // achar(9)
+  !> Length of the short reason a number field is rejected ('not a number', ...).
+  integer, parameter :: why_len = 16
 
   !> State of the line reader: the file, the current line and its number.
   type :: reader_t
@@ -333,11 +335,10 @@ contains
     character(len=chunk_len) :: buf
     integer :: sz, n
 
-    line = ''
+    sz = 0
+    read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) buf
+    line = buf(1:sz)
     do
-      sz = 0
-      read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) buf
-      line = line // buf(1:sz)
       if (ios == iostat_eor) then
         ios = 0
         exit
@@ -347,6 +348,9 @@ contains
         exit
       end if
       if (ios /= 0) return
+      sz = 0
+      read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) buf
+      line = line // buf(1:sz)
     end do
     n = len(line)
     if (n > 0) then
@@ -429,7 +433,7 @@ contains
     type(status_t), intent(inout) :: st
     logical :: found
     integer :: id
-    character(len=:), allocatable :: first
+    character(len=len('triangles') + 1) :: first   ! long enough to tell the keywords from longer words
 
     ok = .false.
     call next_record(rd, found, st)
@@ -441,7 +445,7 @@ contains
         "'; truncated file?)")
       return
     end if
-    first = field(rd, 1)
+    first = rd%line(rd%fb(1):rd%fe(1))
     if (first == 'nodes' .or. first == 'triangles' .or. first == 'boundary') then
       call fail(rd, "found " // quote(rd%line) // " but the '" // section // "' section announced " // &
         itoa(n) // ' lines and has only ' // itoa(i - 1) // " (expected '" // layout // "')", st)
@@ -468,10 +472,10 @@ contains
     character(len=*), intent(in) :: what
     integer, intent(out) :: v
     type(status_t), intent(inout) :: st
-    character(len=:), allocatable :: why
-    ok = parse_int(field(rd, k), v, why)
+    character(len=why_len) :: why
+    ok = parse_int(rd%line(rd%fb(k):rd%fe(k)), v, why)
     if (.not. ok) call fail(rd, 'field ' // itoa(k) // ' (' // what // ') ' // quote(field(rd, k)) // &
-      ' is ' // why // ' (expected an integer)', st)
+      ' is ' // trim(why) // ' (expected an integer)', st)
   end function int_field
 
   !> Field k of the current record as a node index in 1..nn.
@@ -496,10 +500,10 @@ contains
     character(len=*), intent(in) :: what
     real(dp), intent(out) :: v
     type(status_t), intent(inout) :: st
-    character(len=:), allocatable :: why
-    ok = parse_real(field(rd, k), v, why)
+    character(len=why_len) :: why
+    ok = parse_real(rd%line(rd%fb(k):rd%fe(k)), v, why)
     if (.not. ok) call fail(rd, 'field ' // itoa(k) // ' (' // what // ') ' // quote(field(rd, k)) // &
-      ' is ' // why // ' (expected a real number of magnitude <= ' // rtoa(max_abs_coord) // ')', st)
+      ' is ' // trim(why) // ' (expected a real number of magnitude <= ' // rtoa(max_abs_coord) // ')', st)
   end function real_field
 
   !> Record a content error at the current line of the reader.
@@ -517,7 +521,7 @@ contains
   logical function parse_int(s, v, why) result(ok)
     character(len=*), intent(in) :: s
     integer, intent(out) :: v
-    character(len=:), allocatable, intent(out) :: why
+    character(len=*), intent(out) :: why
     integer :: p, q, k
     integer(i8) :: w
 
@@ -558,7 +562,7 @@ contains
   logical function parse_real(s, v, why) result(ok)
     character(len=*), intent(in) :: s
     real(dp), intent(out) :: v
-    character(len=:), allocatable, intent(out) :: why
+    character(len=*), intent(out) :: why
     character(len=*), parameter :: digits = '0123456789'
     integer :: p, n, nint_digits, nfrac_digits, first_nz, pos, expo, esign, ios
     logical :: seen_point
@@ -577,7 +581,7 @@ contains
     pos = 0
     seen_point = .false.
     do while (p <= n)
-      if (index(digits, s(p:p)) > 0) then
+      if (is_digit(s(p:p))) then
         pos = pos + 1
         if (first_nz == 0 .and. s(p:p) /= '0') first_nz = pos
         if (seen_point) then
@@ -628,6 +632,12 @@ contains
     end if
     ok = .true.
   end function parse_real
+
+  !> True for the characters '0' .. '9'.
+  elemental logical function is_digit(c)
+    character(len=1), intent(in) :: c
+    is_digit = c >= '0' .and. c <= '9'
+  end function is_digit
 
   ! ------------------------------------------------------------------ duplicates
 

@@ -124,46 +124,65 @@ def split_pieces(stmt):
     return pieces
 
 
-def can_split(kind, text, k):
-    """Whether a piece may be cut before text[k].  Continuation lines start with "&", so a
-    token or a character literal may be cut anywhere, except next to a quote inside a
-    literal (the two quotes of an escaped quote must stay together)."""
-    if k <= 0 or k >= len(text):
-        return False
-    if kind == 'str':
-        quote = text[0]
-        if text[k] == quote or (k > 1 and text[k - 1] == quote):
-            return False
-    return True
-
-
-def split_groups(stmt):
-    """Pieces grouped so that a group ends at a comma or blank outside literals: a line
-    break is first tried between groups, so "message='...'" stays together."""
-    groups, group = [], []
-    for kind, text in split_pieces(stmt):
-        group.append((kind, text))
-        if kind == 'code' and text[-1] in ', ':
-            groups.append(group)
-            group = []
-    if group:
-        groups.append(group)
-    return groups
+def split_literal(text, size):
+    """A long character literal as a concatenation of literals of at most `size` characters
+    each, as pieces.  (Continuing the literal itself on the next line would start that line
+    inside a string, which the C preprocessor run on .F90 files does not understand: a "/*"
+    there would start a C comment.)"""
+    quote, body = text[0], text[1:-1]
+    chunks = []
+    while body:
+        k = min(len(body), max(1, size - 2))
+        while k < len(body) and byte_len(body[:k]) > size - 2:
+            k -= 1
+        # never cut between the two quotes of an escaped quote: count the run of quotes
+        # that ends at the cut; an odd count would cut one pair
+        run = 0
+        while run < k and body[k - 1 - run] == quote:
+            run += 1
+        if run % 2 == 1 and k < len(body):
+            k -= 1 if k > 1 else -1
+        chunks.append(body[:k])
+        body = body[k:]
+    pieces = []
+    for i, chunk in enumerate(chunks):
+        if i:
+            pieces.append(('code', ' // '))
+        pieces.append(('str', quote + chunk + quote))
+    return pieces
 
 
 def wrap_statement(stmt, indent):
     """Free-form lines of at most MAX_LINE bytes for one statement: every line but the last
-    ends with "&", every continuation line starts with "&"."""
+    ends with "&", every continuation line starts with "&".  Lines break at commas and blanks
+    where possible, inside longer tokens otherwise (legal with the leading "&"); character
+    literals too long for a line are split into a concatenation."""
     cont_prefix = indent + '    &'
-    fresh_room = MAX_LINE - byte_len(cont_prefix) - 1
+    fresh_room = MAX_LINE - byte_len(cont_prefix) - 1   # keep one column for the final "&"
+    if fresh_room < 20:
+        raise ValueError('indentation too deep to wrap: %d columns' % len(indent))
     lines = []
     cur = indent
     has_content = False
 
     def room():
-        return MAX_LINE - byte_len(cur) - 1             # keep one column for the final "&"
+        return MAX_LINE - byte_len(cur) - 1
 
-    for group in split_groups(stmt):
+    groups, group = [], []
+    for kind, text in split_pieces(stmt):
+        if kind == 'str' and byte_len(text) > fresh_room:
+            group.extend(split_literal(text, fresh_room - 4))
+            continue
+        group.append((kind, text))
+        # a group ends at a comma or blank outside literals: breaks go between groups first,
+        # so that "message='...'" stays together
+        if kind == 'code' and text[-1] in ', ':
+            groups.append(group)
+            group = []
+    if group:
+        groups.append(group)
+
+    for group in groups:
         size = sum(byte_len(text) for _, text in group)
         if size > room() and has_content and size <= fresh_room:
             lines.append(cur + '&')
@@ -174,21 +193,13 @@ def wrap_statement(stmt, indent):
                     cur += text
                     has_content = True
                     break
-                if has_content and byte_len(text) <= fresh_room:
+                if has_content and (kind == 'str' or byte_len(text) <= fresh_room):
                     lines.append(cur + '&')
                     cur, has_content = cont_prefix, False
                     continue
                 k = 0
                 while k < len(text) and byte_len(text[:k + 1]) <= room():
                     k += 1
-                while k > 0 and not can_split(kind, text, k):
-                    k -= 1
-                if k == 0:
-                    if not has_content:
-                        raise ValueError('cannot wrap statement: ' + stmt[:60])
-                    lines.append(cur + '&')
-                    cur, has_content = cont_prefix, False
-                    continue
                 lines.append(cur + text[:k] + '&')
                 cur, has_content = cont_prefix, False
                 text = text[k:]
@@ -417,7 +428,9 @@ class TestModule:
                     out.append(line_marker(last + 2, self.path))
                     i = last + 1
                     continue
-                self.error(lineno, 'unsupported directive @%s' % name)
+                self.error(lineno, 'unsupported directive @%s (pfunit_lite supports @test, @before, @after, '
+                                   '@assertEqual, @assertTrue, @assertFalse, @assertLessThan[OrEqual], '
+                                   '@assertGreaterThan[OrEqual], @assertIsFinite)' % name)
                 out.append(line)
                 i += 1
                 continue
@@ -464,8 +477,10 @@ class TestModule:
 
 def main_program(modules):
     out = ['! Generated by test/pfunit_lite.py -- do not edit.',
-           '! Runs every @test of: ' + (' '.join(m.pf_name for m in modules) or '(none)'),
-           'program pfunit_lite_main']
+           '! Runs every @test of:']
+    for mod in modules:
+        out.append('!   ' + mod.path)
+    out.append('program pfunit_lite_main')
     body = []
     uses = [('funit', 'funit_run_test', None), ('funit', 'funit_finish', None)]
     for mi, mod in enumerate(modules, 1):

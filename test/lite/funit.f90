@@ -6,8 +6,8 @@
 !> so a test returns at its first failed assertion, as under pFUnit.  The generated main program
 !> runs every test through funit_run_test and ends with funit_finish.
 !>
-!> Only argument combinations that pFUnit 4 also accepts are provided, so a test that compiles
-!> here compiles under real pFUnit:
+!> Only argument combinations that pFUnit 4 also accepts are provided, so that a test compiling
+!> here also compiles under real pFUnit:
 !>   assertEqual  integer (default or int64; expected default or same kind) scalar/rank-1, with
 !>                `message=` by keyword only;
 !>                real(real64) actual, expected integer, default real or real64, scalar or rank-1
@@ -22,7 +22,7 @@
 !>   assertIsFinite  real(real64) scalar (pFUnit 4 has no array form).
 module funit
    use, intrinsic :: iso_fortran_env, only: real64, int64, output_unit
-   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan, ieee_is_finite
+   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan, ieee_is_finite, ieee_value, ieee_positive_inf
    implicit none
    private
 
@@ -981,7 +981,7 @@ contains
       within = abs_difference(e, a) <= tol
    end function within
 
-   !> |a - e| for finite e and a, saturating at huge() instead of overflowing.
+   !> |a - e| for finite e and a, computed without overflow: +Infinity if it exceeds huge().
    real(real64) function abs_difference(e, a)
       real(real64), intent(in) :: e, a
       real(real64) :: half
@@ -990,7 +990,7 @@ contains
       else
          half = abs(0.5_real64*a - 0.5_real64*e)
          if (half > 0.5_real64*huge(e)) then
-            abs_difference = huge(e)
+            abs_difference = ieee_value(e, ieee_positive_inf)
          else
             abs_difference = 2.0_real64*half
          end if
@@ -1028,11 +1028,12 @@ contains
       s = trim(buffer)
    end function istr_int64
 
-   !> Shortest decimal form (up to 17 significant digits) that reads back as x.
+   !> Shortest decimal form (at most 17 significant digits) that reads back as x: fixed point
+   !> for 1e-4 <= |x| < 1e15, otherwise scientific.
    function rstr(x) result(s)
       real(real64), intent(in) :: x
       character(len=:), allocatable :: s
-      character(len=40) :: buffer
+      character(len=64) :: buffer
       character(len=12) :: form
       real(real64) :: y
       integer :: digits, status
@@ -1043,8 +1044,22 @@ contains
          s = '-Infinity'
          if (x > 0.0_real64) s = '+Infinity'
          return
+      else if (x == 0.0_real64) then
+         s = '0.0'
+         return
       end if
-      if (abs(x) > 1.0e307_real64) then   ! reading a rounded value back might overflow
+      if (abs(x) >= 1.0e-4_real64 .and. abs(x) < 1.0e15_real64) then
+         do digits = 1, 24
+            write(form, '(a, i0, a)') '(f0.', digits, ')'
+            write(buffer, form) x
+            read(buffer, *, iostat=status) y
+            if (status == 0 .and. y == x) exit
+         end do
+         s = trim(adjustl(buffer))
+         if (s(1:1) == '.') s = '0' // s                  ! gfortran writes F0.d without the 0
+         if (s(1:min(2, len(s))) == '-.') s = '-0' // s(2:)
+         return
+      else if (abs(x) > 1.0e307_real64) then   ! reading a rounded value back might overflow
          write(buffer, '(es0.16)') x
       else
          do digits = 1, 16
@@ -1054,7 +1069,7 @@ contains
             if (status == 0 .and. y == x) exit
          end do
       end if
-      s = trim(buffer)
+      s = trim(adjustl(buffer))
    end function rstr
 
    function lstr(b) result(s)

@@ -1,0 +1,178 @@
+!> dualsig_bench: work-precision benchmark of the primal solvers (`make bench`).
+!>
+!> For the manufactured scenes p1_contact and p2_contact on the unit square, per level:
+!> - the time of one projected SOR sweep divided by the time of one sparse matrix-vector
+!>   product with the same matrix (medians over repeated timings in this run);
+!> - projected SOR with omega = 1 (the paper's Gauss-Seidel with constraints) and with the
+!>   automatic omega (Young's formula on a Lanczos estimate), each from a zero start and
+!>   from the interpolated coarser solution (nested iteration): sweeps, seconds, error.
+!> Writes the table to standard output and to out/bench_primal.csv.
+program dualsig_bench
+  use, intrinsic :: iso_fortran_env, only: int64
+  use dualsig_kinds, only: dp
+  use dualsig_status, only: status_t
+  use dualsig_mesh, only: mesh_t, mesh_h
+  use dualsig_mesh_generate, only: mesh_rectangle
+  use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
+  use dualsig_quadrature, only: tri_rule
+  use dualsig_sparse, only: csr_matvec
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, project_sor_sweep, &
+                                 BOUND_FIXED
+  use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
+  use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints, PROBLEM_P1
+  use dualsig_scenes, only: scene_t, scene_lookup
+  use dualsig_estimate_errors, only: p1_error_norms
+  implicit none
+
+  integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
+  integer, parameter :: max_level_gs = 6       !! omega = 1 is run up to this level only (sweeps x4 per level)
+  integer, parameter :: timing_repeats = 21    !! timings per median
+  real(dp), parameter :: tol = 1.0e-10_dp      !! KKT tolerance of every solve
+  integer, parameter :: max_sweeps = 400000
+  character(len=10), parameter :: scenes(2) = ['p1_contact', 'p2_contact']
+
+  type(scene_t) :: scene
+  type(status_t) :: st
+  type(mesh_t) :: mesh, finer
+  type(primal_system_t) :: sys
+  real(dp), allocatable :: u_prev(:), u_start(:), x(:), y(:)
+  real(dp) :: t_mv, t_sw, omega_auto, lmin, lmax
+  integer :: s, level, steps, csv
+  character(len=*), parameter :: head = &
+    '     scene  lvl     ndof  sweep/matvec  omega   start    sweeps   seconds      err_u_H1  kkt_residual'
+
+  call execute_command_line('mkdir -p out')
+  open (newunit=csv, file='out/bench_primal.csv', status='replace')
+  write (csv, '(a)') 'scene,level,ndof,sweep_over_matvec,omega,start,sweeps,seconds,err_u_H1,kkt_residual'
+  write (*, '(a)') 'dualsig_bench: projected SOR, KKT tolerance 1e-10, medians of 21 timings'
+  write (*, '(a)') head
+  do s = 1, size(scenes)
+    call scene_lookup(scenes(s), scene, st)
+    call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
+    do level = 1, max_level
+      if (level > 1) then
+        call mesh_refine_uniform(mesh, finer, st)
+        ! nested start: the previous level's solution interpolated on the new mesh
+        if (allocated(u_start)) deallocate (u_start)
+        allocate (u_start(finer%nnode))
+        call mesh_prolongate_p1(mesh, finer, u_prev, u_start)
+        mesh = finer
+      end if
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
+                              sys%kind, sys%bnd, st)
+      allocate (x(mesh%nnode), y(mesh%nnode))
+      x = 1.0_dp
+      t_mv = median_matvec()
+      t_sw = median_sweep()
+      deallocate (x, y)
+      call jacobi_scaled_extremes(sys%a, sys%kind /= BOUND_FIXED, 400, 1.0e-3_dp, lmin, lmax, steps, st)
+      omega_auto = sor_omega_from_jacobi(lmin, lmax)
+      if (level >= 3) then
+        if (level <= max_level_gs) then
+          call run(1.0_dp, .false.)
+          call run(1.0_dp, .true.)
+        end if
+        call run(omega_auto, .true.)
+      end if
+      call run(omega_auto, .false.)          ! last: its solution starts the next level
+    end do
+    if (allocated(u_prev)) deallocate (u_prev)
+    if (allocated(u_start)) deallocate (u_start)
+  end do
+  close (csv)
+  write (*, '(a)') 'dualsig_bench: table written to out/bench_primal.csv'
+
+contains
+
+  !> Solve from zero (nested = .false.) or from u_start; the solution is kept in u_prev.
+  subroutine run(omega, nested)
+    real(dp), intent(in) :: omega
+    logical, intent(in) :: nested
+    type(psor_settings_t) :: set
+    type(psor_result_t) :: res
+    type(status_t) :: st_solve
+    real(dp), allocatable :: u(:)
+    real(dp) :: t0, secs, e0, e1, err
+    character(len=6) :: start
+    allocate (u(mesh%nnode), source=0.0_dp)
+    start = 'zero'
+    if (nested .and. allocated(u_start)) then
+      u = u_start
+      start = 'nested'
+    end if
+    set%omega = omega
+    set%tol = tol
+    set%max_iter = max_sweeps
+    t0 = wall()
+    call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, set, res, st_solve)
+    secs = wall() - t0
+    call p1_error_norms(mesh, u, scene%u, scene%grad_u, tri_rule(16), e0, e1)
+    err = e1
+    if (scene%problem == PROBLEM_P1) err = sqrt(e0**2 + e1**2)
+    u_prev = u
+    if (level < 3) return
+    write (*, '(a10,i5,i9,f14.2,f7.3,a8,i10,f10.3,es14.4,es14.3)') trim(scene%name), level, &
+      count(sys%kind /= BOUND_FIXED), t_sw / t_mv, omega, trim(start), res%iterations, secs, err, &
+      res%kkt_residual
+    write (csv, '(a,",",i0,",",i0,",",es12.4,",",f8.5,",",a,",",i0,",",es12.4,",",es16.8,",",es12.4)') &
+      trim(scene%name), level, count(sys%kind /= BOUND_FIXED), t_sw / t_mv, omega, trim(start), &
+      res%iterations, secs, err, res%kkt_residual
+    flush (6)
+  end subroutine run
+
+  !> Median time of one y = A x.
+  real(dp) function median_matvec() result(t)
+    real(dp) :: times(timing_repeats), t0
+    integer :: k, r, reps
+    reps = max(1, 2000000 / max(1, size(sys%a%val)))
+    do k = 1, timing_repeats
+      t0 = wall()
+      do r = 1, reps
+        call csr_matvec(sys%a, x, y)
+        x(1) = x(1) + 1.0e-300_dp * y(1)
+      end do
+      times(k) = (wall() - t0) / reps
+    end do
+    t = median(times)
+  end function median_matvec
+
+  !> Median time of one projected SOR sweep with the same matrix.
+  real(dp) function median_sweep() result(t)
+    real(dp) :: times(timing_repeats), t0
+    integer :: k, r, reps
+    reps = max(1, 2000000 / max(1, size(sys%a%val)))
+    do k = 1, timing_repeats
+      t0 = wall()
+      do r = 1, reps
+        call project_sor_sweep(sys%a, sys%load, sys%kind, sys%bnd, 1.0_dp, x)
+      end do
+      times(k) = (wall() - t0) / reps
+    end do
+    t = median(times)
+  end function median_sweep
+
+  real(dp) function median(v)
+    real(dp), intent(in) :: v(:)
+    real(dp) :: w(size(v)), tmp
+    integer :: i, j
+    w = v
+    do i = 2, size(w)
+      tmp = w(i)
+      j = i - 1
+      do while (j >= 1)
+        if (w(j) <= tmp) exit
+        w(j + 1) = w(j)
+        j = j - 1
+      end do
+      w(j + 1) = tmp
+    end do
+    median = w((size(w) + 1) / 2)
+  end function median
+
+  real(dp) function wall()
+    integer(int64) :: c, r
+    call system_clock(c, r)
+    wall = real(c, dp) / real(r, dp)
+  end function wall
+end program dualsig_bench
