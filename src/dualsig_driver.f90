@@ -26,6 +26,7 @@ module dualsig_driver
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
                               table_write_text, table_write_csv, table_format_row, &
                               table_format_header, observed_rate
+  use dualsig_strings, only: itoa, rtoa
   use dualsig_io_files, only: file_commit, file_delete, temp_name, ensure_parent_dir
   implicit none
   private
@@ -299,19 +300,4 @@ contains
     wall_seconds = real(count, dp) / real(rate, dp)
   end function wall_seconds
 
-  pure function itoa(i) result(s)
-    integer, intent(in) :: i
-    character(len=:), allocatable :: s
-    character(len=16) :: buf
-    write (buf, '(i0)') i
-    s = trim(buf)
-  end function itoa
-
-  pure function rtoa(x) result(s)
-    real(dp), intent(in) :: x
-    character(len=:), allocatable :: s
-    character(len=32) :: buf
-    write (buf, '(f0.2)') x
-    s = trim(adjustl(buf))
-  end function rtoa
 end module dualsig_driver

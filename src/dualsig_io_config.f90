@@ -14,6 +14,7 @@ module dualsig_io_config
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_IO
   use dualsig_scenes, only: max_markers
+  use dualsig_strings, only: itoa, rtoa, lower
   implicit none
   private
 
@@ -614,42 +615,6 @@ contains
       j = j + 1
     end do
   end function skip_blanks
-
-  pure function lower(s) result(t)
-    character(len=*), intent(in) :: s
-    character(len=len(s)) :: t
-    integer :: k
-    t = s
-    do k = 1, len(s)
-      if (s(k:k) >= 'A' .and. s(k:k) <= 'Z') t(k:k) = achar(iachar(s(k:k)) + 32)
-    end do
-  end function lower
-
-  pure function itoa(i) result(s)
-    integer, intent(in) :: i
-    character(len=:), allocatable :: s
-    character(len=16) :: buf
-    write (buf, '(i0)') i
-    s = trim(buf)
-  end function itoa
-
-  !> The shortest decimal form of x that reads back to the same value.
-  function rtoa(x) result(s)
-    real(dp), intent(in) :: x
-    character(len=:), allocatable :: s
-    character(len=40) :: buf, fmt
-    real(dp) :: back
-    integer :: d, ios
-    do d = 1, 17
-      write (fmt, '(a,i0,a,i0,a)') '(es', d + 8, '.', d, 'e3)'
-      write (buf, fmt) x
-      read (buf, *, iostat=ios) back
-      if (ios == 0 .and. back == x) exit
-    end do
-    s = trim(adjustl(buf))
-    ! drop a zero exponent and trailing zeros of the mantissa: 1.5E+000 -> 1.5
-    if (index(s, 'E+000') > 0) s = s(1:index(s, 'E+000') - 1)
-  end function rtoa
 
   pure function ltoa(l) result(s)
     logical, intent(in) :: l

@@ -154,13 +154,7 @@ contains
           call set_error(st, DS_ERR_MESH, trim(buf))
           return
         end if
-        e = 0
-        do p = head(lo), head(lo) + cnt(lo) - 1
-          if (bucket_other(p) == hi) then
-            e = bucket_edge(p)
-            exit
-          end if
-        end do
+        e = find_edge(lo, hi)
         if (e == 0) then
           ne = ne + 1
           e = ne
@@ -214,13 +208,7 @@ contains
       end if
       lo = min(a, b)
       hi = max(a, b)
-      e = 0
-      do p = head(lo), head(lo) + cnt(lo) - 1
-        if (bucket_other(p) == hi) then
-          e = bucket_edge(p)
-          exit
-        end if
-      end do
+      e = find_edge(lo, hi)
       if (e == 0) then
         write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
           ') is not a side of any triangle'
@@ -309,5 +297,20 @@ contains
       ! a reversal (dot < 0) with sine ~ 0 is also a corner (a slit tip)
       mesh%node_is_corner(j) = abs(sin_angle) > corner_sin_tol .or. dot_product(din, dout) < 0.0_dp
     end do
+
+  contains
+
+    !> The edge (lo, hi), lo < hi, already stored in lo's bucket, or 0.
+    pure integer function find_edge(lo, hi) result(edge)
+      integer, intent(in) :: lo, hi
+      integer :: q
+      edge = 0
+      do q = head(lo), head(lo) + cnt(lo) - 1
+        if (bucket_other(q) == hi) then
+          edge = bucket_edge(q)
+          return
+        end if
+      end do
+    end function find_edge
   end subroutine mesh_build_topology
 end module dualsig_mesh

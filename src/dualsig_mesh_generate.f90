@@ -195,7 +195,7 @@ contains
     type(status_t), intent(out) :: st
     mesh%bedge_marker = marker
     call mesh_build_topology(mesh, st)
-    if (st%code /= 0) call set_error(st, st%code, who // ': ' // st%msg)
+    if (st%code /= 0) st%msg = who // ': ' // st%msg      ! keep the code, name the source
   end subroutine finish
 
   !> True when the counts of a grid of nx x ny cells fit a default integer: nodes, triangles

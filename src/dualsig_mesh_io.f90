@@ -111,7 +111,7 @@ contains
     type(mesh_t), intent(inout) :: mesh
     integer, intent(out) :: nflip
     type(status_t), intent(inout) :: st
-    integer, allocatable :: node_line(:), tri_line(:), bedge_line(:)
+    integer, allocatable :: node_line(:), tri_line(:)
     integer :: i, k, v, nn, nt, nb, version, istat
     logical :: found
     real(dp) :: area, area_tol
@@ -177,7 +177,7 @@ contains
 
     ! --- boundary edges ---
     if (.not. section_header(rd, 'boundary', nb, st)) return
-    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb), bedge_line(nb), stat=istat)
+    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb), stat=istat)
     if (istat /= 0) then
       call fail(rd, 'cannot allocate ' // itoa(nb) // ' boundary edges (expected a smaller count)', st)
       return
@@ -185,7 +185,6 @@ contains
     mesh%nbedge = nb
     do i = 1, nb
       if (.not. data_record(rd, 'boundary', i, nb, 4, '<id> <n1> <n2> <marker>', st)) return
-      bedge_line(i) = rd%lineno
       do k = 2, 3
         if (.not. node_field(rd, k, nn, mesh%bedge_nodes(k - 1, i), st)) return
       end do
@@ -227,8 +226,9 @@ contains
 
     call mesh_build_topology(mesh, st)
     if (st%code /= 0) then
-      if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(7:)
-      call set_error(st, st%code, "mesh file '" // rd%path // "': " // st%msg)
+      ! keep the code; name the file instead of the generic 'mesh: ' prefix
+      if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(len('mesh: ') + 1:)
+      st%msg = "mesh file '" // rd%path // "': " // st%msg
     end if
   end subroutine read_body
 

@@ -68,7 +68,7 @@ contains
     end do
 
     call mesh_build_topology(fine, st)
-    if (st%code /= 0) call set_error(st, st%code, 'mesh_refine_uniform: ' // st%msg)
+    if (st%code /= 0) st%msg = 'mesh_refine_uniform: ' // st%msg   ! keep the code, name the source
   end subroutine mesh_refine_uniform
 
   !> Interpolate a continuous P1 nodal vector from `coarse` to the mesh `fine` obtained

@@ -92,34 +92,17 @@ contains
   pure subroutine gauss_legendre(m, x, w)
     integer, intent(in) :: m
     real(dp), intent(out) :: x(m), w(m)
-    integer :: i, k, it
-    real(dp) :: z, p0, p1, p2, dp_dz, dz
+    integer :: i, it
+    real(dp) :: z, p1, dp_dz, dz
     do i = 1, (m + 1) / 2
       z = cos(pi * (real(i, dp) - 0.25_dp) / (real(m, dp) + 0.5_dp))
       do it = 1, newton_max_iter
-        p0 = 1.0_dp
-        p1 = z
-        do k = 2, m
-          p2 = ((2 * k - 1) * z * p1 - (k - 1) * p0) / k
-          p0 = p1
-          p1 = p2
-        end do
-        if (m == 1) p0 = 1.0_dp
-        dp_dz = m * (z * p1 - p0) / (z * z - 1.0_dp)
+        call legendre(m, z, p1, dp_dz)
         dz = p1 / dp_dz
         z = z - dz
         if (abs(dz) <= newton_tol) exit
       end do
-      ! recompute P_{m-1}, P_m at the converged node for the weight
-      p0 = 1.0_dp
-      p1 = z
-      do k = 2, m
-        p2 = ((2 * k - 1) * z * p1 - (k - 1) * p0) / k
-        p0 = p1
-        p1 = p2
-      end do
-      if (m == 1) p0 = 1.0_dp
-      dp_dz = m * (z * p1 - p0) / (z * z - 1.0_dp)
+      call legendre(m, z, p1, dp_dz)      ! derivative at the converged node, for the weight
       x(i) = -z
       x(m + 1 - i) = z
       w(i) = 2.0_dp / ((1.0_dp - z * z) * dp_dz * dp_dz)
@@ -127,4 +110,22 @@ contains
     end do
     if (mod(m, 2) == 1) x((m + 1) / 2) = 0.0_dp
   end subroutine gauss_legendre
+
+  !> The Legendre polynomial P_m(z) and its derivative, by the three-term recurrence
+  !> (|z| < 1).
+  pure subroutine legendre(m, z, pm, dpm)
+    integer, intent(in) :: m
+    real(dp), intent(in) :: z
+    real(dp), intent(out) :: pm, dpm
+    real(dp) :: p0, p2
+    integer :: k
+    p0 = 1.0_dp
+    pm = z
+    do k = 2, m
+      p2 = ((2 * k - 1) * z * pm - (k - 1) * p0) / k
+      p0 = pm
+      pm = p2
+    end do
+    dpm = m * (z * pm - p0) / (z * z - 1.0_dp)
+  end subroutine legendre
 end module dualsig_quadrature
