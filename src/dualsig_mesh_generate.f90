@@ -22,6 +22,7 @@ module dualsig_mesh_generate
   use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t, mesh_build_topology
+  use dualsig_strings, only: lower
   implicit none
   private
 
@@ -219,18 +220,6 @@ contains
     x(0) = a
     x(n) = b
   end function grid_coords
-
-  !> Lower-case copy of an ASCII string.
-  pure function lower(s) result(r)
-    character(len=*), intent(in) :: s
-    character(len=len(s)) :: r
-    integer :: k, c
-    r = s
-    do k = 1, len(s)
-      c = iachar(s(k:k))
-      if (c >= iachar('A') .and. c <= iachar('Z')) r(k:k) = achar(c - iachar('A') + iachar('a'))
-    end do
-  end function lower
 
   !> Nodes, triangles and boundary edges of the kept cells of a tensor grid.
   !>

@@ -36,6 +36,7 @@ module dualsig_mesh_io
   use dualsig_kinds, only: dp, i8, geom_rel_tol
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_IO
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
+  use dualsig_strings, only: itoa
   implicit none
   private
 
@@ -768,15 +769,6 @@ contains
   end subroutine merge_sort_pairs
 
   ! ------------------------------------------------------------------ text helpers
-
-  !> Decimal text of an integer.
-  pure function itoa(i) result(s)
-    integer, intent(in) :: i
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write (buf, '(i0)') i
-    s = trim(buf)
-  end function itoa
 
   !> Short text of a real.
   pure function rtoa(x) result(s)
