@@ -14,6 +14,9 @@ MAKEFLAGS += --no-print-directory
 ifeq ($(origin FC),default)
 FC := gfortran
 endif
+ifeq ($(origin CC),default)
+CC := gcc
+endif
 BUILD ?= release
 
 STD_FLAGS   := -std=f2018 -fimplicit-none -ffree-line-length-132
@@ -27,14 +30,15 @@ ifeq ($(origin FFLAGS),undefined)
     FFLAGS := $(OPT_FLAGS)
   endif
 endif
-LIBS ?= -llapack -lblas
+LIBS ?= -lcholmod -lsuitesparseconfig -llapack -lblas
 
 # Debian packages the project needs (build, run and test).
 DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libsuitesparse-dev libmetis-dev python3
 
 BLD  := build/$(BUILD)
 SRCS := $(sort $(wildcard src/*.f90))
-OBJS := $(patsubst src/%.f90,$(BLD)/%.o,$(SRCS))
+CSRCS := $(sort $(wildcard src/*.c))
+OBJS := $(patsubst src/%.f90,$(BLD)/%.o,$(SRCS)) $(patsubst src/%.c,$(BLD)/%.o,$(CSRCS))
 
 ifeq ($(BUILD),release)
   LIBDIR := lib
@@ -65,6 +69,10 @@ $(BLD)/deps.mk: $(SRCS) Makefile | $(BLD)
 
 $(BLD)/%.o: src/%.f90 | $(BLD) $(MODDIR)
 	$(FC) $(STD_FLAGS) $(FFLAGS) -J$(MODDIR) -I$(MODDIR) -c $< -o $@
+
+# C shims (CHOLMOD); Fortran reaches them through bind(c) interfaces, a link-time dependency only.
+$(BLD)/%.o: src/%.c | $(BLD)
+	$(CC) -O2 -g -Wall -Wextra -I/usr/include/suitesparse -c $< -o $@
 
 $(LIBRARY): $(OBJS) | $(LIBDIR)
 	@rm -f $@

@@ -6,7 +6,10 @@
 !> - projected SOR with omega = 1 (the paper's Gauss-Seidel with constraints) and with the
 !>   automatic omega (Young's formula on a Lanczos estimate), each from a zero start and
 !>   from the interpolated coarser solution (nested iteration): sweeps, seconds, error.
-!> Writes the table to standard output and to out/bench_primal.csv.
+!> For the dual problem of P1 (p1_contact), per level: Uzawa (the paper's algorithm) and
+!> the feasible active-set solver, iterations, seconds, the ratio of the whole dual solve
+!> to ONE CHOLMOD analyse + factorisation of the Gram matrix A, err_q_Q and sqrt(est).
+!> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv.
 program dualsig_bench
   use, intrinsic :: iso_fortran_env, only: int64
   use dualsig_kinds, only: dp
@@ -22,6 +25,11 @@ program dualsig_bench
   use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints, PROBLEM_P1
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_estimate_errors, only: p1_error_norms
+  use dualsig_sparse, only: csr_t
+  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free
+  use dualsig_assembly_dual_p1, only: assemble_dual_p1
+  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
+  use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -30,6 +38,8 @@ program dualsig_bench
   real(dp), parameter :: tol = 1.0e-10_dp      !! KKT tolerance of every solve
   integer, parameter :: max_sweeps = 400000
   character(len=10), parameter :: scenes(2) = ['p1_contact', 'p2_contact']
+  integer, parameter :: max_level_dual = 7        !! finest level of the dual benchmark
+  integer, parameter :: max_level_uzawa = 6       !! Uzawa needs O(1/h) iterations: up to this level
 
   type(scene_t) :: scene
   type(status_t) :: st
@@ -82,8 +92,74 @@ program dualsig_bench
   end do
   close (csv)
   write (*, '(a)') 'dualsig_bench: table written to out/bench_primal.csv'
+  call bench_dual_p1()
 
 contains
+
+  !> Dual problem of P1: Uzawa and the active-set solver against one factorisation of A.
+  subroutine bench_dual_p1()
+    type(dual_p1_settings_t) :: dset
+    type(dual_p1_result_t) :: dres
+    type(dual_p1_bounds_t) :: bounds
+    type(csr_t) :: a
+    type(cholesky_t) :: chol
+    real(dp), allocatable :: q(:), b(:), u(:)
+    real(dp) :: t0, t_fact, times(3), secs, eq, ediv, eqq
+    integer :: k, m, dcsv
+    type(psor_settings_t) :: set
+    type(psor_result_t) :: res
+    character(len=10) :: methods(2) = ['uzawa     ', 'active_set']
+    open (newunit=dcsv, file='out/bench_dual_p1.csv', status='replace')
+    write (dcsv, '(a)') 'level,ndof_dual,method,iterations,seconds,factorisation_s,ratio,err_q_Q,sqrt_est'
+    write (*, '(/,a)') 'dualsig_bench: dual problem of P1 (p1_contact), feasible q, medians of 3 factorisations'
+    write (*, '(a)') '  lvl  ndof_dual      method   iters   seconds  factor_s  solve/factor      err_q_Q   sqrt(est)'
+    call scene_lookup('p1_contact', scene, st)
+    call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
+    do level = 1, max_level_dual
+      if (level > 1) then
+        call mesh_refine_uniform(mesh, finer, st)
+        mesh = finer
+      end if
+      if (level < 3) cycle
+      ! the primal solution for the bounds
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
+                              sys%kind, sys%bnd, st)
+      call jacobi_scaled_extremes(sys%a, sys%kind /= BOUND_FIXED, 400, 1.0e-3_dp, lmin, lmax, steps, st)
+      set%omega = sor_omega_from_jacobi(lmin, lmax)
+      set%tol = tol
+      allocate (u(mesh%nnode), source=0.0_dp)
+      call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, set, res, st)
+      ! one analyse + factorisation of the Gram matrix A (median of 3)
+      allocate (b(2 * mesh%nnode))
+      call assemble_dual_p1(mesh, scene%f, tri_rule(5), a, b)
+      do k = 1, 3
+        t0 = wall()
+        call cholesky_factor(a, chol, st)
+        times(k) = wall() - t0
+        call cholesky_free(chol)
+      end do
+      t_fact = median(times)
+      do m = 1, 2
+        if (methods(m) == 'uzawa' .and. level > max_level_uzawa) cycle
+        dset%method = methods(m)
+        dset%tol = max(1.0e-10_dp, 1.0e-4_dp * (mesh_h(mesh) / sqrt(2.0_dp))**2)
+        t0 = wall()
+        call dual_p1_solve(mesh, scene%f, tri_rule(5), dset, q, dres, st)
+        secs = wall() - t0
+        call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(16), bounds)
+        call dual_p1_errors(mesh, q, scene%f, scene%u, scene%grad_u, tri_rule(16), eq, ediv, eqq)
+        write (*, '(i5,i11,a12,i8,f10.3,f10.3,f14.2,es13.4,es12.4)') level, 2 * mesh%nnode, trim(methods(m)), &
+          dres%iterations, secs, t_fact, secs / t_fact, eqq, sqrt(bounds%est)
+        write (dcsv, '(i0,",",i0,",",a,",",i0,3(",",es12.4),2(",",es14.6))') level, 2 * mesh%nnode, &
+          trim(methods(m)), dres%iterations, secs, t_fact, secs / t_fact, eqq, sqrt(bounds%est)
+        flush (6)
+      end do
+      deallocate (u, b)
+    end do
+    close (dcsv)
+    write (*, '(a)') 'dualsig_bench: table written to out/bench_dual_p1.csv'
+  end subroutine bench_dual_p1
 
   !> Solve from zero (nested = .false.) or from u_start; the solution is kept in u_prev.
   subroutine run(omega, nested)

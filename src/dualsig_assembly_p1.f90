@@ -8,7 +8,7 @@ module dualsig_assembly_p1
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_elements_p1, only: p1_element_stiffness, p1_element_mass, p1_element_load
-  use dualsig_sparse, only: csr_t, csr_pattern_from_edges
+  use dualsig_sparse, only: csr_t, csr_pattern_from_edges, csr_add_block
   implicit none
   private
 
@@ -33,7 +33,7 @@ contains
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       call p1_element_mass(xy, me)
-      call add_element(m, mesh%tri(:, t), me)
+      call csr_add_block(m, mesh%tri(:, t), me)
     end do
   end subroutine assemble_mass
 
@@ -54,7 +54,7 @@ contains
         call p1_element_mass(xy, me)
         ke = ke + mass_coef * me
       end if
-      call add_element(a, mesh%tri(:, t), ke)
+      call csr_add_block(a, mesh%tri(:, t), ke)
     end do
   end subroutine assemble_p1_operator
 
@@ -73,23 +73,4 @@ contains
       load(mesh%tri(:, t)) = load(mesh%tri(:, t)) + fe
     end do
   end subroutine assemble_load
-
-  !> Add the 3x3 element matrix ae on the global rows/columns `nodes` (pattern assumed).
-  pure subroutine add_element(a, nodes, ae)
-    type(csr_t), intent(inout) :: a
-    integer, intent(in) :: nodes(3)
-    real(dp), intent(in) :: ae(3, 3)
-    integer :: i, j, p, row
-    do i = 1, 3
-      row = nodes(i)
-      do j = 1, 3
-        do p = a%rowptr(row), a%rowptr(row + 1) - 1
-          if (a%col(p) == nodes(j)) then
-            a%val(p) = a%val(p) + ae(i, j)
-            exit
-          end if
-        end do
-      end do
-    end do
-  end subroutine add_element
 end module dualsig_assembly_p1

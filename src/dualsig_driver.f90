@@ -10,7 +10,7 @@ module dualsig_driver
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
                             DS_WARN_NOT_CONVERGED
-  use dualsig_mesh, only: mesh_t, mesh_h
+  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter
   use dualsig_mesh_generate, only: mesh_rectangle, mesh_lshape, mesh_holed_square
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_mesh_io, only: mesh_read_text
@@ -21,7 +21,11 @@ module dualsig_driver
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble, &
                                     PROBLEM_P1
   use dualsig_scenes, only: scene_t, scene_lookup
-  use dualsig_estimate_errors, only: p1_error_norms
+  use dualsig_estimate_errors, only: p1_error_norms, exact_energy
+  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
+  use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
+  use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
+  use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
                               table_write_text, table_write_csv, table_format_row, &
@@ -31,7 +35,7 @@ module dualsig_driver
   implicit none
   private
 
-  public :: run_namelist_file, run_one, primal_columns
+  public :: run_namelist_file, run_one, primal_columns, dual_columns
 
   !> Degree of the quadrature for load vectors (>= 5 as required; Radon's rule).
   integer, parameter :: load_degree = 5
@@ -47,6 +51,9 @@ module dualsig_driver
   character(len=16), parameter :: primal_columns(10) = [character(len=16) :: &
     '#level', 'h', '#ndof', '#primal_iters', 'primal_s', 'err_u_H1', 'rate_u_H1', &
     'err_u_L2', 'rate_u_L2', 'kkt_residual']
+  !> Columns appended when the dual analysis runs.
+  character(len=16), parameter :: dual_columns(8) = [character(len=16) :: &
+    '#dual_iters', 'dual_s', 'err_q_Q', 'rate_q_Q', 'est', 'eff', 'energy_lo', 'energy_hi']
 
 contains
 
@@ -87,7 +94,10 @@ contains
     type(primal_system_t) :: sys
     type(psor_settings_t) :: settings
     type(psor_result_t) :: res
-    type(tri_rule_t) :: load_rule, exact_rule
+    type(tri_rule_t) :: load_rule, exact_rule, bound_rule
+    type(active_set_settings_t) :: aset
+    type(active_set_result_t) :: ares
+    type(dual_p1_settings_t) :: dset
     type(table_t) :: tab
     type(mesh_quality_t) :: q0
     type(status_t) :: st_solve
@@ -98,7 +108,7 @@ contains
     logical :: ok
     character(len=300), allocatable :: header(:)
     character(len=:), allocatable :: txt_path, csv_path, norm_name, matrices, parts, title
-    character(len=200) :: line
+    character(len=300) :: line
 
     title = trim(cfg%title)
     if (len(title) == 0) title = trim(cfg%output)
@@ -146,14 +156,39 @@ contains
     csv_path = trim(cfg%output) // '.csv'
     call ensure_parent_dir(txt_path, st)
     if (st%code /= 0) return
-    call table_init(tab, primal_columns)
+    if (cfg%dual_enabled) then
+      if (scene%problem /= PROBLEM_P1) then
+        call set_error(st, DS_ERR_INPUT, cfg%source_file // ': run of line ' // itoa(cfg%line) // &
+          ': &dual enabled for a P2 scene; the equilibrium-element dual of P2 is not implemented yet')
+        return
+      end if
+      call table_init(tab, [primal_columns, dual_columns])
+    else
+      call table_init(tab, primal_columns)
+    end if
 
     load_rule = tri_rule(load_degree)
     if (scene%has_exact) exact_rule = tri_rule(exact_degree)
+    if (cfg%dual_enabled) bound_rule = tri_rule(exact_degree)
     settings%omega = cfg%omega
     settings%tol = cfg%tol
     settings%max_iter = cfg%max_iter
     settings%check_every = cfg%check_every
+    aset%max_iter = cfg%max_iter
+    dset%method = cfg%dual_method
+    dset%rho = cfg%dual_rho
+    dset%max_iter = cfg%dual_max_iter
+    select case (trim(cfg%dual_ordering))
+    case ('amd')
+      dset%ordering = ORDERING_AMD
+    case ('metis')
+      dset%ordering = ORDERING_METIS
+    case ('natural')
+      dset%ordering = ORDERING_NATURAL
+    case default
+      dset%ordering = ORDERING_BEST
+    end select
+    aset%ordering = dset%ordering
     nonconverged = 0
 
     write (unit, '(a)') 'dualsig: run "' // trim(title) // '" (scene ' // trim(scene%name) // &
@@ -185,13 +220,20 @@ contains
       end if
 
       seconds = wall_seconds()
-      if (cfg%omega_auto) then
-        call jacobi_scaled_extremes(sys%a, sys%kind /= BOUND_FIXED, lanczos_max_steps, lanczos_rel_tol, &
-                                    lmin, lmax, steps, st)
-        if (st%code /= 0) return
-        settings%omega = sor_omega_from_jacobi(lmin, lmax)
+      if (cfg%method == 'active_set') then
+        call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st_solve)
+        res%iterations = ares%iterations
+        res%kkt_residual = ares%kkt_residual
+        res%converged = ares%converged
+      else
+        if (cfg%omega_auto) then
+          call jacobi_scaled_extremes(sys%a, sys%kind /= BOUND_FIXED, lanczos_max_steps, lanczos_rel_tol, &
+                                      lmin, lmax, steps, st)
+          if (st%code /= 0) return
+          settings%omega = sor_omega_from_jacobi(lmin, lmax)
+        end if
+        call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, settings, res, st_solve)
       end if
-      call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, settings, res, st_solve)
       seconds = wall_seconds() - seconds
       if (.not. is_ok(st_solve)) then
         st = st_solve
@@ -229,6 +271,10 @@ contains
           if (ok) call table_set(tab, 'rate_u_L2', rate)
         end if
       end if
+      if (cfg%dual_enabled) then
+        call dual_level()
+        if (.not. is_ok(st)) return
+      end if
       write (unit, '(a)') table_format_row(tab, level)
       flush (unit)
     end do
@@ -250,7 +296,12 @@ contains
     else
       parts = parts // ', no exact solution: error columns nan'
     end if
-    parts = parts // '; dual analysis not requested'
+    if (cfg%dual_enabled) then
+      parts = parts // '; dual analysis: P1 vector fields, ' // trim(cfg%dual_method) // &
+        ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
+    else
+      parts = parts // '; dual analysis not requested'
+    end if
     header = [character(len=300) :: &
       'dualsig error table: ' // trim(title), &
       'scene ' // trim(scene%name) // ': ' // trim(scene%description), &
@@ -263,6 +314,15 @@ contains
       'h = longest side; ndof = unknowns not fixed by Gamma_u; primal_s = wall time of the ' // &
         'solve; rates = observed orders between levels', &
       'namelist (resolved):']
+    if (cfg%dual_enabled) then
+      line = 'est = E(q_h, u_h) of (6.13) >= ||u - u_h||^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
+        '(||q - grad u||^2 + ||f + div q - u||^2)^(1/2); energy_lo <= ||u||_1^2 <= energy_hi (6.14)'
+      header = [character(len=300) :: header(1:size(header) - 1), line, header(size(header))]
+      if (scene%has_exact) then
+        line = 'exact energy ||u||_1^2 = ' // rtoa(exact_energy(mesh, scene%u, scene%grad_u, exact_rule, .true.))
+        header = [character(len=300) :: header(1:size(header) - 1), line, header(size(header))]
+      end if
+    end if
     resolved = cfg
     resolved%gamma_u_markers = 0
     resolved%gamma_a_markers = 0
@@ -291,6 +351,54 @@ contains
     if (nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &
       itoa(nonconverged) // ' level(s) of run "' // trim(cfg%title) // '" did not converge')
     if (present(table)) table = tab
+
+  contains
+
+    !> The dual analysis of the current level: feasible q, bounds, dual errors, columns.
+    subroutine dual_level()
+      real(dp), allocatable :: q(:)
+      type(dual_p1_result_t) :: dres
+      type(dual_p1_bounds_t) :: bounds
+      type(status_t) :: st_dual
+      real(dp) :: t0, err_q, err_div, err_qnorm, rate_q
+      logical :: ok_rate
+      ! Uzawa tolerance tied to the discretisation: no point in solving far below h^2
+      dset%tol = max(cfg%dual_tol, cfg%dual_tol_h2 * (h / mesh_diameter(mesh))**2)
+      t0 = wall_seconds()
+      call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual)
+      t0 = wall_seconds() - t0
+      if (.not. is_ok(st_dual)) then
+        st = st_dual
+        st%msg = 'level ' // itoa(level) // ': ' // st%msg
+        return
+      end if
+      if (st_dual%code == DS_WARN_NOT_CONVERGED) then
+        nonconverged = nonconverged + 1
+        write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_dual%msg
+      end if
+      call dual_p1_bounds(mesh, u, q, scene%f, bound_rule, bounds)
+      call table_set(tab, 'dual_iters', real(dres%iterations, dp))
+      call table_set(tab, 'dual_s', t0)
+      call table_set(tab, 'est', bounds%est)
+      call table_set(tab, 'energy_lo', bounds%energy_lo)
+      call table_set(tab, 'energy_hi', bounds%energy_hi)
+      if (scene%has_exact) then
+        call dual_p1_errors(mesh, q, scene%f, scene%u, scene%grad_u, exact_rule, err_q, err_div, err_qnorm)
+        call table_set(tab, 'err_q_Q', err_qnorm)
+        if (level > 1) then
+          call observed_rate(table_value(tab, level - 1, 'err_q_Q'), err_qnorm, &
+                             table_value(tab, level - 1, 'h'), h, rate_q, ok_rate)
+          if (ok_rate) call table_set(tab, 'rate_q_Q', rate_q)
+        end if
+        if (err_energy > 0.0_dp) call table_set(tab, 'eff', sqrt(bounds%est) / err_energy)
+      end if
+      write (unit, '(a,i0,a,i0,a,a,a,i0,a,es9.2,a,i0,a,i0)') '  dual level ', level, ': ', dres%iterations, &
+        ' iterations (', trim(cfg%dual_method), '), nnz(L) = ', dres%nnz_factor, ', residual ', dres%residual, &
+        ', constraints ', dres%nconstraints, ', active ', dres%nactive
+      if (cfg%dual_method == 'uzawa') write (unit, '(a,es10.3,a,es10.3,a,i0)') '    rho = ', dres%rho, &
+        ', lambda_max(B A^-1 B^T) ~ ', dres%lambda_max, ', retries ', dres%retries
+      write (unit, '(a,a)') '    ordering ', trim(dres%ordering)
+    end subroutine dual_level
   end subroutine run_one
 
   !> Wall-clock seconds from an arbitrary origin.

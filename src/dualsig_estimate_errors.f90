@@ -9,7 +9,7 @@ module dualsig_estimate_errors
   implicit none
   private
 
-  public :: p1_error_norms
+  public :: p1_error_norms, exact_energy
 
 contains
 
@@ -44,4 +44,28 @@ contains
     err_l2 = sqrt(e0)
     err_h1semi = sqrt(e1)
   end subroutine p1_error_norms
+
+  !> Energy of the exact solution over the mesh's domain: |u|_1^2, plus ||u||_0^2 when
+  !> `full` (then ||u||_1^2, the energy of P1), by the quadrature `rule`.
+  real(dp) function exact_energy(mesh, u, grad_u, rule, full) result(energy)
+    type(mesh_t), intent(in) :: mesh
+    procedure(scalar_field) :: u
+    procedure(vector_field) :: grad_u
+    type(tri_rule_t), intent(in) :: rule
+    logical, intent(in) :: full
+    real(dp) :: xy(2, 3), grad(2, 3), area, p(2), el
+    integer :: t, q
+    energy = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_gradients(xy, grad, area)
+      el = 0.0_dp
+      do q = 1, rule%n
+        p = matmul(xy, rule%bary(:, q))
+        el = el + rule%w(q) * sum(grad_u(p(1), p(2))**2)
+        if (full) el = el + rule%w(q) * u(p(1), p(2))**2
+      end do
+      energy = energy + area * el
+    end do
+  end function exact_energy
 end module dualsig_estimate_errors

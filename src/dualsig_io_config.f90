@@ -1,8 +1,8 @@
 !> Run configuration: namelist files for batch runs.
 !>
-!> A file is a sequence of runs.  Each run starts with a `&run` group; the `&mesh` and
-!> `&solver` groups that follow it (before the next `&run`) belong to that run, in any
-!> order, each at most once.  Variables not given keep their defaults, which are reset
+!> A file is a sequence of runs.  Each run starts with a `&run` group; the `&mesh`,
+!> `&solver` and `&dual` groups that follow it (before the next `&run`) belong to that run,
+!> in any order, each at most once.  Variables not given keep their defaults, which are reset
 !> for every run, so each run is self-contained.  Comments start with '!'.
 !>
 !> Before the namelist read every assignment is checked against the group's variable
@@ -29,6 +29,8 @@ module dualsig_io_config
     'source file x0 x1 y0 y1 nx ny n pattern levels'
   character(len=*), parameter :: solver_items = &
     'method omega omega_auto tol max_iter check_every nested'
+  character(len=*), parameter :: dual_items = &
+    'enabled method rho tol tol_h2 max_iter ordering'
 
   type :: run_config_t
     character(len=:), allocatable :: source_file   !! the namelist file
@@ -54,6 +56,14 @@ module dualsig_io_config
     integer :: max_iter = 200000
     integer :: check_every = 10
     logical :: nested = .true.
+    ! &dual
+    logical :: dual_enabled = .false.
+    character(len=16) :: dual_method = 'active_set'
+    real(dp) :: dual_rho = 0.0_dp
+    real(dp) :: dual_tol = 1.0e-10_dp
+    real(dp) :: dual_tol_h2 = 1.0e-4_dp
+    integer :: dual_max_iter = 20000
+    character(len=16) :: dual_ordering = 'best'
   end type run_config_t
 
   type :: group_t
@@ -73,7 +83,7 @@ contains
     character(len=max_line_len), allocatable :: lines(:)
     type(group_t), allocatable :: groups(:)
     integer :: g, r, nrun
-    logical :: seen_mesh, seen_solver
+    logical :: seen_mesh, seen_solver, seen_dual
 
     allocate (runs(0))
     call read_lines(path, lines, st)
@@ -90,6 +100,7 @@ contains
     r = 0
     seen_mesh = .false.
     seen_solver = .false.
+    seen_dual = .false.
     do g = 1, size(groups)
       select case (trim(groups(g)%name))
       case ('run')
@@ -98,14 +109,16 @@ contains
         runs(r)%line = groups(g)%line
         seen_mesh = .false.
         seen_solver = .false.
+        seen_dual = .false.
         call apply_group(path, groups(g), run_items, runs(r), st)
-      case ('mesh', 'solver')
+      case ('mesh', 'solver', 'dual')
         if (r == 0) then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
             ': group &' // trim(groups(g)%name) // ' before the first &run group')
           return
         end if
-        if ((groups(g)%name == 'mesh' .and. seen_mesh) .or. (groups(g)%name == 'solver' .and. seen_solver)) then
+        if ((groups(g)%name == 'mesh' .and. seen_mesh) .or. (groups(g)%name == 'solver' .and. seen_solver) &
+            .or. (groups(g)%name == 'dual' .and. seen_dual)) then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
             ': second &' // trim(groups(g)%name) // ' group in the run of line ' // itoa(runs(r)%line))
           return
@@ -113,13 +126,16 @@ contains
         if (groups(g)%name == 'mesh') then
           seen_mesh = .true.
           call apply_group(path, groups(g), mesh_items, runs(r), st)
+        else if (groups(g)%name == 'dual') then
+          seen_dual = .true.
+          call apply_group(path, groups(g), dual_items, runs(r), st)
         else
           seen_solver = .true.
           call apply_group(path, groups(g), solver_items, runs(r), st)
         end if
       case default
         call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
-          ': unknown namelist group &' // trim(groups(g)%name) // '; expected &run, &mesh or &solver')
+          ': unknown namelist group &' // trim(groups(g)%name) // '; expected &run, &mesh, &solver or &dual')
         return
       end select
       if (st%code /= 0) return
@@ -134,7 +150,7 @@ contains
   function config_echo(cfg) result(lines)
     type(run_config_t), intent(in) :: cfg
     character(len=300), allocatable :: lines(:)
-    allocate (lines(3))
+    allocate (lines(4))
     lines(1) = '&run title = ''' // trim(cfg%title) // ''', scene = ''' // trim(cfg%scene) // &
       ''', output = ''' // trim(cfg%output) // ''', gamma_u_markers = ' // ilist(cfg%gamma_u_markers) // &
       ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ' /'
@@ -147,6 +163,10 @@ contains
       ', omega_auto = ' // ltoa(cfg%omega_auto) // ', tol = ' // rtoa(cfg%tol) // ', max_iter = ' // &
       itoa(cfg%max_iter) // ', check_every = ' // itoa(cfg%check_every) // ', nested = ' // &
       ltoa(cfg%nested) // ' /'
+    lines(4) = '&dual enabled = ' // ltoa(cfg%dual_enabled) // ', method = ''' // trim(cfg%dual_method) // &
+      ''', rho = ' // rtoa(cfg%dual_rho) // ', tol = ' // rtoa(cfg%dual_tol) // ', tol_h2 = ' // &
+      rtoa(cfg%dual_tol_h2) // ', max_iter = ' // itoa(cfg%dual_max_iter) // ', ordering = ''' // &
+      trim(cfg%dual_ordering) // ''' /'
   end function config_echo
 
   ! ================================================================== reading
@@ -223,7 +243,7 @@ contains
         if (cur(k:k) == '!') cycle
         if (cur(k:k) /= '&') then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // &
-            ': expected the start of a namelist group (&run, &mesh or &solver), found "' // &
+            ': expected the start of a namelist group (&run, &mesh, &solver or &dual), found "' // &
             trim(cur(k:min(len_trim(cur), k + 30))) // '"')
           allocate (groups(0))
           return
@@ -443,6 +463,11 @@ contains
     namelist /solver/ method, omega, omega_auto, tol, max_iter, check_every, nested
     integer :: k
 
+    if (gname == 'dual') then
+      call read_dual_group(assign, cfg, ios, msg)
+      return
+    end if
+
     rec(1) = '&' // gname
     do k = 1, size(assign)
       rec(k + 1) = assign(k)
@@ -509,6 +534,42 @@ contains
     end select
   end subroutine read_group
 
+  !> Read the assignments of the &dual group into cfg (its names overlap &solver's).
+  subroutine read_dual_group(assign, cfg, ios, msg)
+    character(len=*), intent(in) :: assign(:)
+    type(run_config_t), intent(inout) :: cfg
+    integer, intent(out) :: ios
+    character(len=*), intent(out) :: msg
+    character(len=max_line_len + 16) :: rec(size(assign) + 2)
+    logical :: enabled
+    character(len=16) :: method, ordering
+    real(dp) :: rho, tol, tol_h2
+    integer :: max_iter, k
+    namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering
+    rec(1) = '&dual'
+    do k = 1, size(assign)
+      rec(k + 1) = assign(k)
+    end do
+    rec(size(rec)) = '/'
+    msg = ''
+    enabled = cfg%dual_enabled
+    method = cfg%dual_method
+    rho = cfg%dual_rho
+    tol = cfg%dual_tol
+    tol_h2 = cfg%dual_tol_h2
+    max_iter = cfg%dual_max_iter
+    ordering = cfg%dual_ordering
+    read (rec, nml=dual, iostat=ios, iomsg=msg)
+    if (ios /= 0) return
+    cfg%dual_enabled = enabled
+    cfg%dual_method = method
+    cfg%dual_rho = rho
+    cfg%dual_tol = tol
+    cfg%dual_tol_h2 = tol_h2
+    cfg%dual_max_iter = max_iter
+    cfg%dual_ordering = ordering
+  end subroutine read_dual_group
+
   !> Range checks of a run configuration, each naming the variable and what is expected.
   subroutine validate(cfg, st)
     type(run_config_t), intent(in) :: cfg
@@ -534,9 +595,9 @@ contains
     else if (.not. any(cfg%pattern == [character(len=16) :: 'right', 'left', 'union_jack'])) then
       call set_error(st, DS_ERR_INPUT, where // '&mesh pattern = "' // trim(cfg%pattern) // &
         '"; expected right, left or union_jack')
-    else if (cfg%method /= 'psor') then
+    else if (.not. any(cfg%method == [character(len=16) :: 'psor', 'active_set'])) then
       call set_error(st, DS_ERR_INPUT, where // '&solver method = "' // trim(cfg%method) // &
-        '"; expected psor')
+        '"; expected psor or active_set')
     else if (.not. (cfg%omega > 0.0_dp .and. cfg%omega < 2.0_dp)) then
       call set_error(st, DS_ERR_INPUT, where // '&solver omega = ' // rtoa(cfg%omega) // &
         '; expected 0 < omega < 2')
@@ -547,6 +608,21 @@ contains
       call set_error(st, DS_ERR_INPUT, where // '&solver max_iter must be >= 1')
     else if (cfg%check_every < 1) then
       call set_error(st, DS_ERR_INPUT, where // '&solver check_every must be >= 1')
+    else if (.not. any(cfg%dual_method == [character(len=16) :: 'active_set', 'uzawa'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual method = "' // trim(cfg%dual_method) // &
+        '"; expected active_set or uzawa')
+    else if (.not. cfg%dual_rho >= 0.0_dp) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual rho = ' // rtoa(cfg%dual_rho) // &
+        '; expected rho > 0, or 0 for the automatic choice')
+    else if (.not. (cfg%dual_tol > 0.0_dp .and. cfg%dual_tol < 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual tol = ' // rtoa(cfg%dual_tol) // '; expected 0 < tol < 1')
+    else if (.not. (cfg%dual_tol_h2 >= 0.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual tol_h2 must be >= 0')
+    else if (cfg%dual_max_iter < 1) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual max_iter must be >= 1')
+    else if (.not. any(cfg%dual_ordering == [character(len=16) :: 'best', 'amd', 'metis', 'natural'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual ordering = "' // trim(cfg%dual_ordering) // &
+        '"; expected best, amd, metis or natural')
     end if
   end subroutine validate
 
@@ -555,11 +631,11 @@ contains
     character(len=*), intent(in) :: name
     character(len=:), allocatable :: s
     select case (trim(name))
-    case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method')
+    case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering')
       s = 'a quoted string'
-    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol')
+    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2')
       s = 'a real number'
-    case ('omega_auto', 'nested')
+    case ('omega_auto', 'nested', 'enabled')
       s = 'a logical, .true. or .false.'
     case ('gamma_u_markers', 'gamma_a_markers')
       s = 'a list of at most 16 integers'

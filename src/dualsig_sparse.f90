@@ -8,8 +8,9 @@ module dualsig_sparse
   implicit none
   private
 
-  public :: csr_t, csr_pattern_from_edges, csr_add, csr_get, csr_matvec, csr_is_symmetric, &
-            csr_nnz
+  public :: csr_t, csr_pattern_from_edges, csr_add, csr_add_block, csr_get, csr_matvec, &
+            csr_is_symmetric, csr_nnz
+  public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t
 
   type :: csr_t
     integer :: n = 0                     !! number of rows = number of columns
@@ -18,6 +19,15 @@ module dualsig_sparse
     integer, allocatable :: diag(:)      !! (n) position of the diagonal entry of each row
     real(dp), allocatable :: val(:)      !! (nnz) values
   end type csr_t
+
+  !> Rectangular CSR matrix (m x n), e.g. constraint rows; columns sorted in each row.
+  type :: rect_t
+    integer :: m = 0                     !! rows
+    integer :: n = 0                     !! columns
+    integer, allocatable :: rowptr(:)    !! (m+1)
+    integer, allocatable :: col(:)       !! (nnz)
+    real(dp), allocatable :: val(:)      !! (nnz)
+  end type rect_t
 
 contains
 
@@ -96,6 +106,100 @@ contains
       end if
     end do
   end subroutine csr_add
+
+  !> a(idx, idx) += blk for a dense block on the index set idx (all entries in the pattern;
+  !> entries outside it are skipped).
+  pure subroutine csr_add_block(a, idx, blk)
+    type(csr_t), intent(inout) :: a
+    integer, intent(in) :: idx(:)
+    real(dp), intent(in) :: blk(:,:)
+    integer :: r, c, p
+    do r = 1, size(idx)
+      do c = 1, size(idx)
+        do p = a%rowptr(idx(r)), a%rowptr(idx(r) + 1) - 1
+          if (a%col(p) == idx(c)) then
+            a%val(p) = a%val(p) + blk(r, c)
+            exit
+          end if
+        end do
+      end do
+    end do
+  end subroutine csr_add_block
+
+  !> Rectangular m x n matrix from rows given as (row, col, value) triplets sorted by row
+  !> (duplicates within a row are summed).
+  subroutine rect_from_triplets(m, n, row, col, val, b)
+    integer, intent(in) :: m, n
+    integer, intent(in) :: row(:), col(:)
+    real(dp), intent(in) :: val(:)
+    type(rect_t), intent(out) :: b
+    integer :: k, i, p, q, tmp_c
+    real(dp) :: tmp_v
+    b%m = m
+    b%n = n
+    allocate (b%rowptr(m + 1), b%col(size(row)), b%val(size(row)))
+    b%rowptr = 0
+    do k = 1, size(row)
+      b%rowptr(row(k) + 1) = b%rowptr(row(k) + 1) + 1
+    end do
+    b%rowptr(1) = 1
+    do i = 1, m
+      b%rowptr(i + 1) = b%rowptr(i + 1) + b%rowptr(i)
+    end do
+    block
+      integer :: fill(m)
+      fill = 0
+      do k = 1, size(row)
+        p = b%rowptr(row(k)) + fill(row(k))
+        b%col(p) = col(k)
+        b%val(p) = val(k)
+        fill(row(k)) = fill(row(k)) + 1
+      end do
+    end block
+    do i = 1, m                             ! sort each short row by column
+      do p = b%rowptr(i) + 1, b%rowptr(i + 1) - 1
+        tmp_c = b%col(p)
+        tmp_v = b%val(p)
+        q = p - 1
+        do while (q >= b%rowptr(i))
+          if (b%col(q) <= tmp_c) exit
+          b%col(q + 1) = b%col(q)
+          b%val(q + 1) = b%val(q)
+          q = q - 1
+        end do
+        b%col(q + 1) = tmp_c
+        b%val(q + 1) = tmp_v
+      end do
+    end do
+  end subroutine rect_from_triplets
+
+  !> w = B y  (w of size m).
+  pure subroutine rect_matvec(b, y, w)
+    type(rect_t), intent(in) :: b
+    real(dp), intent(in) :: y(:)
+    real(dp), intent(out) :: w(:)
+    integer :: i, p
+    do i = 1, b%m
+      w(i) = 0.0_dp
+      do p = b%rowptr(i), b%rowptr(i + 1) - 1
+        w(i) = w(i) + b%val(p) * y(b%col(p))
+      end do
+    end do
+  end subroutine rect_matvec
+
+  !> y = B^T z  (y of size n).
+  pure subroutine rect_matvec_t(b, z, y)
+    type(rect_t), intent(in) :: b
+    real(dp), intent(in) :: z(:)
+    real(dp), intent(out) :: y(:)
+    integer :: i, p
+    y = 0.0_dp
+    do i = 1, b%m
+      do p = b%rowptr(i), b%rowptr(i + 1) - 1
+        y(b%col(p)) = y(b%col(p)) + b%val(p) * z(i)
+      end do
+    end do
+  end subroutine rect_matvec_t
 
   !> The value a(i, j) (zero when the entry is not stored).
   pure real(dp) function csr_get(a, i, j) result(v)

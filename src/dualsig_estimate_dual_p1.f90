@@ -1,0 +1,130 @@
+!> A posteriori error bounds and two-sided energy bounds for problem P1 (Section 6).
+!>
+!> For a primal approximation u~ in K_1h (u~ >= 0 at the boundary nodes) and a feasible
+!> dual field q in U_0h (q.nu >= 0 on Gamma):
+!>
+!>   (6.13)  ||u~ - u||_1^2 <= E(q, u~) = ||q - grad u~||^2 + ||f + div q - u~||^2
+!>                                         + 2 int_Gamma (q.nu) u~ ds,
+!>   (6.18)  ||q - grad u||^2 + ||f + div q - u||^2 <= E(q, u~)   (Remark 6.4),
+!>   (6.14)  -2 L_1(u~) = 2 (f, u~) - ||u~||_1^2  <=  ||u||_1^2 = (f, u)  <=
+!>           F(q) = ||q||^2 + ||f + div q||^2.
+!>
+!> E is accumulated from its non-negative element and edge terms (Remark 6.1: never as a
+!> difference of energies).  On a boundary edge both q.nu and u~ are linear, so the edge
+!> term is integrated exactly; q.nu is taken >= 0 at the edge ends (it is, up to rounding,
+!> for a feasible q), which can only increase E.  The element contributions (edge terms
+!> added to the triangle that owns the edge) are returned for adaptivity and plots.
+module dualsig_estimate_dual_p1
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: scalar_field, vector_field
+  use dualsig_mesh, only: mesh_t
+  use dualsig_quadrature, only: tri_rule_t
+  use dualsig_elements_p1, only: p1_gradients
+  implicit none
+  private
+
+  public :: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
+
+  type :: dual_p1_bounds_t
+    real(dp) :: est = 0.0_dp             !! E(q, u~) of (6.13)
+    real(dp) :: energy_lo = 0.0_dp       !! 2 (f, u~) - ||u~||_1^2
+    real(dp) :: energy_hi = 0.0_dp       !! F(q)
+    real(dp) :: boundary_term = 0.0_dp   !! 2 int_Gamma (q.nu) u~ ds (part of est)
+    real(dp), allocatable :: est_elem(:) !! (ntri) element contributions, sum = est
+  end type dual_p1_bounds_t
+
+contains
+
+  !> The bounds of (6.13) and (6.14) for the nodal u~ (nnode) and the interleaved nodal
+  !> field q (2 nnode); f is integrated with `rule` (choose a high degree).
+  subroutine dual_p1_bounds(mesh, u, q, f, rule, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:), q(:)
+    procedure(scalar_field) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(dual_p1_bounds_t), intent(out) :: bnd
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), p(2), fq, uq, qq(2)
+    real(dp) :: e1, e2, fu, uu, qn(2), ub(2), len
+    integer :: t, k, j, a, b
+    allocate (bnd%est_elem(mesh%ntri))
+    fu = 0.0_dp
+    uu = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_gradients(xy, grad, area)
+      ue = u(mesh%tri(:, t))
+      do k = 1, 3
+        qe(:, k) = q(2 * mesh%tri(k, t) - 1:2 * mesh%tri(k, t))
+      end do
+      gu = matmul(grad, ue)
+      divq = sum(grad * qe)
+      e1 = 0.0_dp
+      e2 = 0.0_dp
+      do k = 1, rule%n
+        p = matmul(xy, rule%bary(:, k))
+        fq = f(p(1), p(2))
+        uq = dot_product(rule%bary(:, k), ue)
+        qq = matmul(qe, rule%bary(:, k))
+        e1 = e1 + rule%w(k) * sum((qq - gu)**2)
+        e2 = e2 + rule%w(k) * (fq + divq - uq)**2
+        bnd%energy_hi = bnd%energy_hi + area * rule%w(k) * (sum(qq**2) + (fq + divq)**2)
+        fu = fu + area * rule%w(k) * fq * uq
+        uu = uu + area * rule%w(k) * (uq**2 + sum(gu**2))
+      end do
+      bnd%est_elem(t) = area * (e1 + e2)
+    end do
+    ! boundary term: int_e (q.nu) u ds with both factors linear: L/6 (2 a1 b1 + a1 b2 + a2 b1 + 2 a2 b2)
+    do j = 1, mesh%nbedge
+      a = mesh%bedge_nodes(1, j)
+      b = mesh%bedge_nodes(2, j)
+      len = mesh%bedge_length(j)
+      qn(1) = max(0.0_dp, dot_product(q(2 * a - 1:2 * a), mesh%bedge_normal(:, j)))
+      qn(2) = max(0.0_dp, dot_product(q(2 * b - 1:2 * b), mesh%bedge_normal(:, j)))
+      ub = [u(a), u(b)]
+      e1 = 2.0_dp * len / 6.0_dp * (2.0_dp * qn(1) * ub(1) + qn(1) * ub(2) + qn(2) * ub(1) &
+                                    + 2.0_dp * qn(2) * ub(2))
+      bnd%boundary_term = bnd%boundary_term + e1
+      t = mesh%bedge_tri(j)
+      bnd%est_elem(t) = bnd%est_elem(t) + e1
+    end do
+    bnd%est = sum(bnd%est_elem)
+    bnd%energy_lo = 2.0_dp * fu - uu
+  end subroutine dual_p1_bounds
+
+  !> Errors of the dual field against the exact solution u of P1 (grad u = q^0,
+  !> u = f + div q^0): err_q = ||q - grad u||, err_div = ||f + div q - u||, and the
+  !> Q-norm error sqrt(err_q^2 + err_div^2) (div q^0 = Lap u = u - f).
+  subroutine dual_p1_errors(mesh, q, f, u, grad_u, rule, err_q, err_div, err_qnorm)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: q(:)
+    procedure(scalar_field) :: f, u
+    procedure(vector_field) :: grad_u
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(out) :: err_q, err_div, err_qnorm
+    real(dp) :: xy(2, 3), grad(2, 3), area, qe(2, 3), divq, p(2), qq(2), e1, e2
+    integer :: t, k
+    err_q = 0.0_dp
+    err_div = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_gradients(xy, grad, area)
+      do k = 1, 3
+        qe(:, k) = q(2 * mesh%tri(k, t) - 1:2 * mesh%tri(k, t))
+      end do
+      divq = sum(grad * qe)
+      e1 = 0.0_dp
+      e2 = 0.0_dp
+      do k = 1, rule%n
+        p = matmul(xy, rule%bary(:, k))
+        qq = matmul(qe, rule%bary(:, k))
+        e1 = e1 + rule%w(k) * sum((qq - grad_u(p(1), p(2)))**2)
+        e2 = e2 + rule%w(k) * (f(p(1), p(2)) + divq - u(p(1), p(2)))**2
+      end do
+      err_q = err_q + area * e1
+      err_div = err_div + area * e2
+    end do
+    err_qnorm = sqrt(err_q + err_div)
+    err_q = sqrt(err_q)
+    err_div = sqrt(err_div)
+  end subroutine dual_p1_errors
+end module dualsig_estimate_dual_p1
