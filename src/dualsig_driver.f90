@@ -52,8 +52,9 @@ module dualsig_driver
     '#level', 'h', '#ndof', '#primal_iters', 'primal_s', 'err_u_H1', 'rate_u_H1', &
     'err_u_L2', 'rate_u_L2', 'kkt_residual']
   !> Columns appended when the dual analysis runs.
-  character(len=16), parameter :: dual_columns(8) = [character(len=16) :: &
-    '#dual_iters', 'dual_s', 'err_q_Q', 'rate_q_Q', 'est', 'eff', 'energy_lo', 'energy_hi']
+  character(len=16), parameter :: dual_columns(12) = [character(len=16) :: &
+    '#dual_iters', 'dual_s', 'err_q_Q', 'rate_q_Q', 'est', 'eff', 'energy_lo', 'energy_hi', &
+    'err_q_L2', 'rate_q_L2', 'err_lambda3', 'rate_lambda3']
 
 contains
 
@@ -316,7 +317,8 @@ contains
       'namelist (resolved):']
     if (cfg%dual_enabled) then
       line = 'est = E(q_h, u_h) of (6.13) >= ||u - u_h||^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
-        '(||q - grad u||^2 + ||f + div q - u||^2)^(1/2); energy_lo <= ||u||_1^2 <= energy_hi (6.14)'
+        '(err_q_L2^2 + err_lambda3^2)^(1/2), err_q_L2 = ||q - grad u||, err_lambda3 = ||f + div q - u||; ' // &
+        'energy_lo <= ||u||_1^2 = (f,u) <= energy_hi (6.14)'
       header = [character(len=300) :: header(1:size(header) - 1), line, header(size(header))]
       if (scene%has_exact) then
         line = 'exact energy ||u||_1^2 = ' // rtoa(exact_energy(mesh, scene%u, scene%grad_u, exact_rule, .true.))
@@ -360,8 +362,7 @@ contains
       type(dual_p1_result_t) :: dres
       type(dual_p1_bounds_t) :: bounds
       type(status_t) :: st_dual
-      real(dp) :: t0, err_q, err_div, err_qnorm, rate_q
-      logical :: ok_rate
+      real(dp) :: t0, err_q, err_div, err_qnorm
       ! Uzawa tolerance tied to the discretisation: no point in solving far below h^2
       dset%tol = max(cfg%dual_tol, cfg%dual_tol_h2 * (h / mesh_diameter(mesh))**2)
       t0 = wall_seconds()
@@ -384,12 +385,9 @@ contains
       call table_set(tab, 'energy_hi', bounds%energy_hi)
       if (scene%has_exact) then
         call dual_p1_errors(mesh, q, scene%f, scene%u, scene%grad_u, exact_rule, err_q, err_div, err_qnorm)
-        call table_set(tab, 'err_q_Q', err_qnorm)
-        if (level > 1) then
-          call observed_rate(table_value(tab, level - 1, 'err_q_Q'), err_qnorm, &
-                             table_value(tab, level - 1, 'h'), h, rate_q, ok_rate)
-          if (ok_rate) call table_set(tab, 'rate_q_Q', rate_q)
-        end if
+        call set_with_rate('err_q_Q', 'rate_q_Q', err_qnorm)
+        call set_with_rate('err_q_L2', 'rate_q_L2', err_q)
+        call set_with_rate('err_lambda3', 'rate_lambda3', err_div)
         if (err_energy > 0.0_dp) call table_set(tab, 'eff', sqrt(bounds%est) / err_energy)
       end if
       write (unit, '(a,i0,a,i0,a,a,a,i0,a,es9.2,a,i0,a,i0)') '  dual level ', level, ': ', dres%iterations, &
@@ -399,6 +397,18 @@ contains
         ', lambda_max(B A^-1 B^T) ~ ', dres%lambda_max, ', retries ', dres%retries
       write (unit, '(a,a)') '    ordering ', trim(dres%ordering)
     end subroutine dual_level
+
+    !> Set column `name` of the current row to `value` and `rate_name` to its observed order.
+    subroutine set_with_rate(name, rate_name, value)
+      character(len=*), intent(in) :: name, rate_name
+      real(dp), intent(in) :: value
+      real(dp) :: r
+      logical :: ok_r
+      call table_set(tab, name, value)
+      if (level == 1) return
+      call observed_rate(table_value(tab, level - 1, name), value, table_value(tab, level - 1, 'h'), h, r, ok_r)
+      if (ok_r) call table_set(tab, rate_name, r)
+    end subroutine set_with_rate
   end subroutine run_one
 
   !> Wall-clock seconds from an arbitrary origin.
