@@ -38,7 +38,7 @@ module dualsig_problem_dual_p1
   implicit none
   private
 
-  public :: dual_p1_transforms, dual_p1_constraint_rows, dual_p1_to_q, dual_p1_to_s, &
+  public :: dual_p1_transforms, dual_p1_constraint_rows, dual_p1_nodewise, &
             dual_p1_feasible_q, dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
 
   type :: dual_p1_settings_t
@@ -132,7 +132,7 @@ contains
       res%nnz_factor = ares%nnz_factor
       res%ordering = ares%ordering
       res%nactive = ares%nactive
-      call dual_p1_to_q(t, s, y)
+      call dual_p1_nodewise(t, s, y)
       call dual_p1_feasible_q(t, tinv, kind, y, q)
     case default
       call set_error(st, DS_ERR_INPUT, 'dual P1: unknown method "' // trim(settings%method) // &
@@ -212,27 +212,17 @@ contains
     call rect_from_triplets(m, 2 * mesh%nnode, r, c, v, b)
   end subroutine dual_p1_constraint_rows
 
-  !> y = T s (node by node).
-  pure subroutine dual_p1_to_q(t, s, y)
-    real(dp), intent(in) :: t(:,:,:)
-    real(dp), intent(in) :: s(:)
-    real(dp), intent(out) :: y(:)
+  !> w(node i) = blocks(:,:,i) v(node i) for node-interleaved vectors: y = T s with the
+  !> transforms, s = T^{-1} y with their inverses.
+  pure subroutine dual_p1_nodewise(blocks, v, w)
+    real(dp), intent(in) :: blocks(:,:,:)
+    real(dp), intent(in) :: v(:)
+    real(dp), intent(out) :: w(:)
     integer :: i
-    do i = 1, size(t, 3)
-      y(2 * i - 1:2 * i) = matmul(t(:, :, i), s(2 * i - 1:2 * i))
+    do i = 1, size(blocks, 3)
+      w(2 * i - 1:2 * i) = matmul(blocks(:, :, i), v(2 * i - 1:2 * i))
     end do
-  end subroutine dual_p1_to_q
-
-  !> s = T^{-1} y (node by node).
-  pure subroutine dual_p1_to_s(tinv, y, s)
-    real(dp), intent(in) :: tinv(:,:,:)
-    real(dp), intent(in) :: y(:)
-    real(dp), intent(out) :: s(:)
-    integer :: i
-    do i = 1, size(tinv, 3)
-      s(2 * i - 1:2 * i) = matmul(tinv(:, :, i), y(2 * i - 1:2 * i))
-    end do
-  end subroutine dual_p1_to_s
+  end subroutine dual_p1_nodewise
 
   !> The feasible field used by the bounds: q_f = T max(T^{-1} y, 0), the maximum taken on
   !> the bounded components only.  q_f . nu = s_k >= 0 at every boundary node by
@@ -243,8 +233,8 @@ contains
     real(dp), intent(in) :: y(:)
     real(dp), intent(out) :: qf(:)
     real(dp) :: s(size(y))
-    call dual_p1_to_s(tinv, y, s)
+    call dual_p1_nodewise(tinv, y, s)
     where (kind == BOUND_LOWER) s = max(s, 0.0_dp)
-    call dual_p1_to_q(t, s, qf)
+    call dual_p1_nodewise(t, s, qf)
   end subroutine dual_p1_feasible_q
 end module dualsig_problem_dual_p1

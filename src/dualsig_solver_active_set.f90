@@ -57,12 +57,7 @@ contains
     integer :: i, p, it
 
     allocate (fixed(a%n), fixed_new(a%n), g(a%n), rhs(a%n), xb(a%n))
-    call csr_matvec(a, x, g)
-    g = g - f
-    fixed = kind == BOUND_FIXED
-    do i = 1, a%n
-      if (kind(i) == BOUND_LOWER) fixed(i) = g(i) - a%val(a%diag(i)) * (x(i) - bnd(i)) > 0.0_dp
-    end do
+    call predict_fixed(fixed)
     ar = a
     do it = 1, settings%max_iter
       ! reduced system: identity rows/columns for fixed unknowns, bound values moved right
@@ -94,12 +89,7 @@ contains
       call cholesky_solve(chol, rhs, x, st)
       if (st%code /= 0) exit
       res%iterations = it
-      call csr_matvec(a, x, g)
-      g = g - f
-      fixed_new = kind == BOUND_FIXED
-      do i = 1, a%n
-        if (kind(i) == BOUND_LOWER) fixed_new(i) = g(i) - a%val(a%diag(i)) * (x(i) - bnd(i)) > 0.0_dp
-      end do
+      call predict_fixed(fixed_new)
       if (all(fixed_new .eqv. fixed)) then
         res%converged = .true.
         exit
@@ -114,5 +104,20 @@ contains
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, g)
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, &
       'active set: no stable active set after ' // itoa(res%iterations) // ' factorisations')
+
+  contains
+
+    !> The unknowns held at their bound by the next step: fixed ones, and bounded ones with
+    !> g_i - A_ii (x_i - bnd_i) > 0 for the current x (g = A x - F is left in g).
+    subroutine predict_fixed(at_bound)
+      logical, intent(out) :: at_bound(:)
+      integer :: j
+      call csr_matvec(a, x, g)
+      g = g - f
+      at_bound = kind == BOUND_FIXED
+      do j = 1, a%n
+        if (kind(j) == BOUND_LOWER) at_bound(j) = g(j) - a%val(a%diag(j)) * (x(j) - bnd(j)) > 0.0_dp
+      end do
+    end subroutine predict_fixed
   end subroutine active_set_solve
 end module dualsig_solver_active_set
