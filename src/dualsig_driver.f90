@@ -24,6 +24,8 @@ module dualsig_driver
   use dualsig_estimate_errors, only: p1_error_norms, exact_energy
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
+  use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve
+  use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_error
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
@@ -41,6 +43,9 @@ module dualsig_driver
   integer, parameter :: load_degree = 5
   !> Degree of the quadrature for integrals of the exact solution.
   integer, parameter :: exact_degree = 16
+  !> Degree of the quadrature of the P2 bounds (lambda^h is not a polynomial; each point
+  !> costs a line integral of f).
+  integer, parameter :: bound_degree_p2 = 12
   !> Lanczos settings for the automatic SOR parameter.
   integer, parameter :: lanczos_max_steps = 400
   real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
@@ -95,10 +100,12 @@ contains
     type(primal_system_t) :: sys
     type(psor_settings_t) :: settings
     type(psor_result_t) :: res
-    type(tri_rule_t) :: load_rule, exact_rule, bound_rule
+    type(tri_rule_t) :: load_rule, exact_rule, bound_rule, bound_rule_p2
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
     type(dual_p1_settings_t) :: dset
+    type(dual_p2_settings_t) :: d2set
+    character(len=:), allocatable :: dual_method
     type(table_t) :: tab
     type(mesh_quality_t) :: q0
     type(status_t) :: st_solve
@@ -158,11 +165,6 @@ contains
     call ensure_parent_dir(txt_path, st)
     if (st%code /= 0) return
     if (cfg%dual_enabled) then
-      if (scene%problem /= PROBLEM_P1) then
-        call set_error(st, DS_ERR_INPUT, cfg%source_file // ': run of line ' // itoa(cfg%line) // &
-          ': &dual enabled for a P2 scene; the equilibrium-element dual of P2 is not implemented yet')
-        return
-      end if
       call table_init(tab, [primal_columns, dual_columns])
     else
       call table_init(tab, primal_columns)
@@ -171,12 +173,27 @@ contains
     load_rule = tri_rule(load_degree)
     if (scene%has_exact) exact_rule = tri_rule(exact_degree)
     if (cfg%dual_enabled) bound_rule = tri_rule(exact_degree)
+    if (cfg%dual_enabled) bound_rule_p2 = tri_rule(bound_degree_p2)
     settings%omega = cfg%omega
     settings%tol = cfg%tol
     settings%max_iter = cfg%max_iter
     settings%check_every = cfg%check_every
     aset%max_iter = cfg%max_iter
-    dset%method = cfg%dual_method
+    dual_method = trim(cfg%dual_method)
+    if (dual_method == 'default') dual_method = trim(merge('active_set', 'augmented ', scene%problem == PROBLEM_P1))
+    if (cfg%dual_enabled) then
+      if ((scene%problem == PROBLEM_P1 .and. dual_method == 'augmented') .or. &
+          (scene%problem /= PROBLEM_P1 .and. dual_method == 'active_set')) then
+        call set_error(st, DS_ERR_INPUT, cfg%source_file // ': run of line ' // itoa(cfg%line) // &
+          ': &dual method = ''' // dual_method // ''' does not apply to problem P' // itoa(scene%problem) // &
+          '; P1: active_set or uzawa, P2: augmented or uzawa')
+        return
+      end if
+    end if
+    dset%method = dual_method
+    d2set%method = dual_method
+    d2set%rho = cfg%dual_rho
+    d2set%max_iter = cfg%dual_max_iter
     dset%rho = cfg%dual_rho
     dset%max_iter = cfg%dual_max_iter
     select case (trim(cfg%dual_ordering))
@@ -190,6 +207,7 @@ contains
       dset%ordering = ORDERING_BEST
     end select
     aset%ordering = dset%ordering
+    d2set%ordering = dset%ordering
     nonconverged = 0
 
     write (unit, '(a)') 'dualsig: run "' // trim(title) // '" (scene ' // trim(scene%name) // &
@@ -273,7 +291,11 @@ contains
         end if
       end if
       if (cfg%dual_enabled) then
-        call dual_level()
+        if (scene%problem == PROBLEM_P1) then
+          call dual_level_p1()
+        else
+          call dual_level_p2()
+        end if
         if (.not. is_ok(st)) return
       end if
       write (unit, '(a)') table_format_row(tab, level)
@@ -297,9 +319,12 @@ contains
     else
       parts = parts // ', no exact solution: error columns nan'
     end if
-    if (cfg%dual_enabled) then
-      parts = parts // '; dual analysis: P1 vector fields, ' // trim(cfg%dual_method) // &
+    if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1) then
+      parts = parts // '; dual analysis: P1 vector fields, ' // dual_method // &
         ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
+    else if (cfg%dual_enabled) then
+      parts = parts // '; dual analysis: equilibrium elements, ' // dual_method // &
+        '; lambda^h = lambda^f + q^h admissible; bounds (6.26), Theorem 6.4'
     else
       parts = parts // '; dual analysis not requested'
     end if
@@ -316,12 +341,18 @@ contains
         'solve; rates = observed orders between levels', &
       'namelist (resolved):']
     if (cfg%dual_enabled) then
-      line = 'est = E(q_h, u_h) of (6.13) >= ||u - u_h||^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
-        '(err_q_L2^2 + err_lambda3^2)^(1/2), err_q_L2 = ||q - grad u||, err_lambda3 = ||f + div q - u||; ' // &
-        'energy_lo <= ||u||_1^2 = (f,u) <= energy_hi (6.14)'
+      if (scene%problem == PROBLEM_P1) then
+        line = 'est = E(q_h, u_h) of (6.13) >= ||u - u_h||_1^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
+          '(err_q_L2^2 + err_lambda3^2)^(1/2), err_q_L2 = ||q - grad u||, err_lambda3 = ||f + div q - u||; ' // &
+          'energy_lo <= ||u||_1^2 = (f,u) <= energy_hi (6.14)'
+      else
+        line = 'est = E(lambda_h, u_h) of (6.26) >= |u - u_h|_1^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
+          '||grad u - lambda_h||_0; energy_lo <= |u|_1^2 = (f,u) <= energy_hi (Theorem 6.4)'
+      end if
       header = [character(len=300) :: header(1:size(header) - 1), line, header(size(header))]
       if (scene%has_exact) then
-        line = 'exact energy ||u||_1^2 = ' // rtoa(exact_energy(mesh, scene%u, scene%grad_u, exact_rule, .true.))
+        line = 'exact energy (f, u) = ' // rtoa(exact_energy(mesh, scene%u, scene%grad_u, exact_rule, &
+          scene%problem == PROBLEM_P1))
         header = [character(len=300) :: header(1:size(header) - 1), line, header(size(header))]
       end if
     end if
@@ -356,8 +387,8 @@ contains
 
   contains
 
-    !> The dual analysis of the current level: feasible q, bounds, dual errors, columns.
-    subroutine dual_level()
+    !> The dual analysis of P1 on the current level: feasible q, bounds, dual errors, columns.
+    subroutine dual_level_p1()
       real(dp), allocatable :: q(:)
       type(dual_p1_result_t) :: dres
       type(dual_p1_bounds_t) :: bounds
@@ -377,14 +408,15 @@ contains
         nonconverged = nonconverged + 1
         write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_dual%msg
       end if
-      call dual_p1_bounds(mesh, u, q, scene%f, bound_rule, bounds)
+      call dual_p1_bounds(mesh, u, q, scene%f, bound_rule, bounds, scene%x_breaks(1:scene%nbreaks))
       call table_set(tab, 'dual_iters', real(dres%iterations, dp))
       call table_set(tab, 'dual_s', t0)
       call table_set(tab, 'est', bounds%est)
       call table_set(tab, 'energy_lo', bounds%energy_lo)
       call table_set(tab, 'energy_hi', bounds%energy_hi)
       if (scene%has_exact) then
-        call dual_p1_errors(mesh, q, scene%f, scene%u, scene%grad_u, exact_rule, err_q, err_div, err_qnorm)
+        call dual_p1_errors(mesh, q, scene%f, scene%u, scene%grad_u, exact_rule, err_q, err_div, err_qnorm, &
+                            scene%x_breaks(1:scene%nbreaks))
         call set_with_rate('err_q_Q', 'rate_q_Q', err_qnorm)
         call set_with_rate('err_q_L2', 'rate_q_L2', err_q)
         call set_with_rate('err_lambda3', 'rate_lambda3', err_div)
@@ -396,7 +428,54 @@ contains
       if (cfg%dual_method == 'uzawa') write (unit, '(a,es10.3,a,es10.3,a,i0)') '    rho = ', dres%rho, &
         ', lambda_max(B A^-1 B^T) ~ ', dres%lambda_max, ', retries ', dres%retries
       write (unit, '(a,a)') '    ordering ', trim(dres%ordering)
-    end subroutine dual_level
+    end subroutine dual_level_p1
+
+    !> The dual analysis of P2 on the current level: equilibrium elements, admissible
+    !> lambda^h = lambda^f + q^h, bounds (6.26) and Theorem 6.4, ||grad u - lambda^h||.
+    subroutine dual_level_p2()
+      type(dual_p2_field_t) :: field
+      type(dual_p2_result_t) :: dres
+      type(dual_p2_bounds_t) :: bounds
+      type(status_t) :: st_dual
+      logical, allocatable :: is_gamma_a(:)
+      integer :: j
+      real(dp) :: t0
+      allocate (is_gamma_a(mesh%nbedge))
+      do j = 1, mesh%nbedge
+        is_gamma_a(j) = any(gamma_a == mesh%bedge_marker(j))
+      end do
+      d2set%tol = max(cfg%dual_tol, cfg%dual_tol_h2 * (h / mesh_diameter(mesh))**2)
+      t0 = wall_seconds()
+      call dual_p2_solve(mesh, scene%f, is_gamma_a, minval(mesh%xy(1, :)), d2set, field, dres, st_dual, &
+                         scene%x_breaks(1:scene%nbreaks))
+      t0 = wall_seconds() - t0
+      if (.not. is_ok(st_dual)) then
+        st = st_dual
+        st%msg = 'level ' // itoa(level) // ': ' // st%msg
+        return
+      end if
+      if (st_dual%code == DS_WARN_NOT_CONVERGED) then
+        nonconverged = nonconverged + 1
+        write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_dual%msg
+      end if
+      call dual_p2_bounds(mesh, u, field, scene%f, is_gamma_a, bound_rule_p2, bounds)
+      call table_set(tab, 'dual_iters', real(dres%iterations, dp))
+      call table_set(tab, 'dual_s', t0)
+      call table_set(tab, 'est', bounds%est)
+      call table_set(tab, 'energy_lo', bounds%energy_lo)
+      call table_set(tab, 'energy_hi', bounds%energy_hi)
+      if (scene%has_exact) then
+        call set_with_rate('err_q_Q', 'rate_q_Q', dual_p2_error(mesh, field, scene%f, scene%grad_u, bound_rule_p2))
+        if (err_energy > 0.0_dp) call table_set(tab, 'eff', sqrt(bounds%est) / err_energy)
+      end if
+      write (unit, '(a,i0,a,i0,a,a,a,i0,a,i0,a,es9.2,a,i0,a,i0)') '  dual level ', level, ': ', dres%iterations, &
+        ' iterations (', dual_method, '), factorisations ', dres%factorisations, ', nnz(L) = ', dres%nnz_factor, &
+        ', divergence defect ', dres%defect, ', constraints ', dres%nconstraints, ', active ', dres%nactive
+      if (dual_method == 'uzawa') write (unit, '(a,es10.3,a,es10.3,a,es9.2)') '    rho = ', dres%rho, &
+        ', lambda_max(B A^-1 B^T) ~ ', dres%lambda_max, ', residual ', dres%residual
+      if (dual_method == 'augmented') write (unit, '(a,es10.3,a,a)') '    penalty r = ', dres%penalty, &
+        ', ordering ', trim(dres%ordering)
+    end subroutine dual_level_p2
 
     !> Set column `name` of the current row to `value` and `rate_name` to its observed order.
     subroutine set_with_rate(name, rate_name, value)

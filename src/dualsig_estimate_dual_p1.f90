@@ -18,7 +18,7 @@ module dualsig_estimate_dual_p1
   use dualsig_kinds, only: dp
   use dualsig_fields, only: scalar_field, vector_field
   use dualsig_mesh, only: mesh_t
-  use dualsig_quadrature, only: tri_rule_t
+  use dualsig_quadrature, only: tri_rule_t, tri_points_t, tri_points
   use dualsig_elements_p1, only: p1_gradients
   implicit none
   private
@@ -37,14 +37,16 @@ contains
 
   !> The bounds of (6.13) and (6.14) for the nodal u~ (nnode) and the interleaved nodal
   !> field q (2 nnode); f is integrated with `rule` (choose a high degree).
-  subroutine dual_p1_bounds(mesh, u, q, f, rule, bnd)
+  subroutine dual_p1_bounds(mesh, u, q, f, rule, bnd, breaks)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:), q(:)
     procedure(scalar_field) :: f
     type(tri_rule_t), intent(in) :: rule
     type(dual_p1_bounds_t), intent(out) :: bnd
-    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), p(2), fq, uq, qq(2)
+    real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), fq, uq, qq(2)
     real(dp) :: e1, e2, fu, uu, qn(2), ub(2), len
+    type(tri_points_t) :: tp
     integer :: t, k, j, a, b
     allocate (bnd%est_elem(mesh%ntri))
     fu = 0.0_dp
@@ -60,18 +62,18 @@ contains
       divq = sum(grad * qe)
       e1 = 0.0_dp
       e2 = 0.0_dp
-      do k = 1, rule%n
-        p = matmul(xy, rule%bary(:, k))
-        fq = f(p(1), p(2))
-        uq = dot_product(rule%bary(:, k), ue)
-        qq = matmul(qe, rule%bary(:, k))
-        e1 = e1 + rule%w(k) * sum((qq - gu)**2)
-        e2 = e2 + rule%w(k) * (fq + divq - uq)**2
-        bnd%energy_hi = bnd%energy_hi + area * rule%w(k) * (sum(qq**2) + (fq + divq)**2)
-        fu = fu + area * rule%w(k) * fq * uq
-        uu = uu + area * rule%w(k) * (uq**2 + sum(gu**2))
+      tp = points(xy, rule, breaks)
+      do k = 1, tp%n
+        fq = f(tp%p(1, k), tp%p(2, k))
+        uq = dot_product(tp%bary(:, k), ue)
+        qq = matmul(qe, tp%bary(:, k))
+        e1 = e1 + tp%w(k) * sum((qq - gu)**2)
+        e2 = e2 + tp%w(k) * (fq + divq - uq)**2
+        bnd%energy_hi = bnd%energy_hi + tp%w(k) * (sum(qq**2) + (fq + divq)**2)
+        fu = fu + tp%w(k) * fq * uq
+        uu = uu + tp%w(k) * (uq**2 + sum(gu**2))
       end do
-      bnd%est_elem(t) = area * (e1 + e2)
+      bnd%est_elem(t) = e1 + e2
     end do
     ! boundary term: int_e (q.nu) u ds with both factors linear: L/6 (2 a1 b1 + a1 b2 + a2 b1 + 2 a2 b2)
     do j = 1, mesh%nbedge
@@ -94,14 +96,16 @@ contains
   !> Errors of the dual field against the exact solution u of P1 (grad u = q^0,
   !> u = f + div q^0): err_q = ||q - grad u||, err_div = ||f + div q - u||, and the
   !> Q-norm error sqrt(err_q^2 + err_div^2) (div q^0 = Lap u = u - f).
-  subroutine dual_p1_errors(mesh, q, f, u, grad_u, rule, err_q, err_div, err_qnorm)
+  subroutine dual_p1_errors(mesh, q, f, u, grad_u, rule, err_q, err_div, err_qnorm, breaks)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: q(:)
     procedure(scalar_field) :: f, u
     procedure(vector_field) :: grad_u
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(out) :: err_q, err_div, err_qnorm
+    real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
     real(dp) :: xy(2, 3), grad(2, 3), area, qe(2, 3), divq, p(2), qq(2), e1, e2
+    type(tri_points_t) :: tp
     integer :: t, k
     err_q = 0.0_dp
     err_div = 0.0_dp
@@ -114,17 +118,32 @@ contains
       divq = sum(grad * qe)
       e1 = 0.0_dp
       e2 = 0.0_dp
-      do k = 1, rule%n
-        p = matmul(xy, rule%bary(:, k))
-        qq = matmul(qe, rule%bary(:, k))
-        e1 = e1 + rule%w(k) * sum((qq - grad_u(p(1), p(2)))**2)
-        e2 = e2 + rule%w(k) * (f(p(1), p(2)) + divq - u(p(1), p(2)))**2
+      tp = points(xy, rule, breaks)
+      do k = 1, tp%n
+        p = tp%p(:, k)
+        qq = matmul(qe, tp%bary(:, k))
+        e1 = e1 + tp%w(k) * sum((qq - grad_u(p(1), p(2)))**2)
+        e2 = e2 + tp%w(k) * (f(p(1), p(2)) + divq - u(p(1), p(2)))**2
       end do
-      err_q = err_q + area * e1
-      err_div = err_div + area * e2
+      err_q = err_q + e1
+      err_div = err_div + e2
     end do
     err_qnorm = sqrt(err_q + err_div)
     err_q = sqrt(err_q)
     err_div = sqrt(err_div)
   end subroutine dual_p1_errors
+
+  !> Quadrature points of the triangle xy, split along the break lines when given.
+  pure function points(xy, rule, breaks) result(tp)
+    real(dp), intent(in) :: xy(2, 3)
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(in), optional :: breaks(:)
+    type(tri_points_t) :: tp
+    real(dp) :: none(0)
+    if (present(breaks)) then
+      tp = tri_points(xy, rule, breaks)
+    else
+      tp = tri_points(xy, rule, none)
+    end if
+  end function points
 end module dualsig_estimate_dual_p1

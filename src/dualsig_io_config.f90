@@ -58,7 +58,7 @@ module dualsig_io_config
     logical :: nested = .true.
     ! &dual
     logical :: dual_enabled = .false.
-    character(len=16) :: dual_method = 'active_set'
+    character(len=16) :: dual_method = 'default'
     real(dp) :: dual_rho = 0.0_dp
     real(dp) :: dual_tol = 1.0e-10_dp
     real(dp) :: dual_tol_h2 = 1.0e-4_dp
@@ -608,9 +608,9 @@ contains
       call set_error(st, DS_ERR_INPUT, where // '&solver max_iter must be >= 1')
     else if (cfg%check_every < 1) then
       call set_error(st, DS_ERR_INPUT, where // '&solver check_every must be >= 1')
-    else if (.not. any(cfg%dual_method == [character(len=16) :: 'active_set', 'uzawa'])) then
+    else if (.not. any(cfg%dual_method == [character(len=16) :: 'default', 'active_set', 'augmented', 'uzawa'])) then
       call set_error(st, DS_ERR_INPUT, where // '&dual method = "' // trim(cfg%dual_method) // &
-        '"; expected active_set or uzawa')
+        '"; expected default, active_set (P1), augmented (P2) or uzawa')
     else if (.not. cfg%dual_rho >= 0.0_dp) then
       call set_error(st, DS_ERR_INPUT, where // '&dual rho = ' // rtoa(cfg%dual_rho) // &
         '; expected rho > 0, or 0 for the automatic choice')

@@ -28,7 +28,8 @@ module dualsig_problem_dual_p1
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_from_triplets
   use dualsig_quadrature, only: tri_rule_t
-  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free, ORDERING_BEST
+  use dualsig_sparse_direct, only: ORDERING_BEST
+  use dualsig_spd_solver, only: cholmod_spd_t
   use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER
   use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve, ROW_INEQUALITY
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
@@ -83,7 +84,7 @@ contains
     integer, allocatable :: kind(:), row_node(:), row_kind(:)
     type(csr_t) :: a
     type(rect_t) :: bmat
-    type(cholesky_t) :: chol
+    type(cholmod_spd_t) :: chol
     type(uzawa_settings_t) :: uset
     type(uzawa_result_t) :: ures
     type(active_set_settings_t) :: aset
@@ -96,10 +97,10 @@ contains
     select case (trim(settings%method))
     case ('uzawa')
       call assemble_dual_p1(mesh, f, rule, a, b)
-      call cholesky_factor(a, chol, st, settings%ordering)
+      call chol%factor(a, st, settings%ordering)
       if (st%code /= 0) return
-      res%nnz_factor = chol%nnz_factor
-      res%ordering = chol%ordering
+      res%nnz_factor = chol%chol%nnz_factor
+      res%ordering = chol%chol%ordering
       call dual_p1_constraint_rows(mesh, bmat, row_node)
       allocate (z(bmat%m), source=0.0_dp)
       allocate (row_kind(bmat%m), source=ROW_INEQUALITY)
@@ -108,7 +109,7 @@ contains
       uset%tol = settings%tol
       uset%max_iter = settings%max_iter
       call uzawa_solve(chol, b, bmat, row_kind, zero, y, z, uset, ures, st)
-      call cholesky_free(chol)
+      call chol%free()
       if (.not. is_ok(st)) return
       res%iterations = ures%iterations
       res%residual = ures%residual

@@ -11,7 +11,7 @@ module dualsig_quadrature
   implicit none
   private
 
-  public :: tri_rule_t, tri_rule, gauss_legendre
+  public :: tri_rule_t, tri_rule, gauss_legendre, tri_points_t, tri_points
 
   !> Newton iteration for the Gauss-Legendre nodes stops when the update is below this.
   real(dp), parameter :: newton_tol = 4.0_dp * epsilon(1.0_dp)
@@ -24,7 +24,99 @@ module dualsig_quadrature
     real(dp), allocatable :: w(:)         !! (n) weights, sum(w) = 1
   end type tri_rule_t
 
+  !> Quadrature points of one triangle: physical points, absolute weights (summing to the
+  !> area) and barycentric coordinates in that triangle.
+  type :: tri_points_t
+    integer :: n = 0
+    real(dp), allocatable :: p(:,:)      !! (2, n)
+    real(dp), allocatable :: w(:)        !! (n)
+    real(dp), allocatable :: bary(:,:)   !! (3, n) with respect to the parent triangle
+  end type tri_points_t
+
+  !> Sub-triangles thinner than this fraction of the parent's area are dropped.
+  real(dp), parameter :: sliver_rel_area = 1.0e-14_dp
+
 contains
+
+  !> The points of `rule` on the triangle xy(2,3), after cutting it along the vertical lines
+  !> x = breaks(k) that cross it: the rule is applied on every piece (a piece of a triangle
+  !> cut by a line is a triangle or a quadrilateral = two triangles), so an integrand that is
+  !> smooth on each side of the lines (a source with a kink, and fields built from it) is
+  !> integrated to the rule's accuracy instead of the accuracy of a kink.
+  pure function tri_points(xy, rule, breaks) result(tp)
+    real(dp), intent(in) :: xy(2, 3)
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(in) :: breaks(:)
+    type(tri_points_t) :: tp
+    real(dp), allocatable :: pieces(:,:,:), next(:,:,:)
+    real(dp) :: area, det, pa, q(2)
+    integer :: k, j, m, npiece, nnext, i
+    area = abs(tri_area(xy))
+    allocate (pieces(2, 3, 1))
+    pieces(:, :, 1) = xy
+    npiece = 1
+    do k = 1, size(breaks)
+      allocate (next(2, 3, 3 * npiece))
+      nnext = 0
+      do j = 1, npiece
+        call cut_at_x(pieces(:, :, j), breaks(k), next, nnext)
+      end do
+      call move_alloc(next, pieces)
+      npiece = nnext
+    end do
+    allocate (tp%p(2, npiece * rule%n), tp%w(npiece * rule%n), tp%bary(3, npiece * rule%n))
+    det = (xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1))
+    m = 0
+    do j = 1, npiece
+      pa = abs(tri_area(pieces(:, :, j)))
+      if (pa <= sliver_rel_area * area) cycle
+      do i = 1, rule%n
+        m = m + 1
+        tp%p(:, m) = matmul(pieces(:, :, j), rule%bary(:, i))
+        tp%w(m) = pa * rule%w(i)
+        q = tp%p(:, m) - xy(:, 1)
+        tp%bary(2, m) = (q(1) * (xy(2, 3) - xy(2, 1)) - q(2) * (xy(1, 3) - xy(1, 1))) / det
+        tp%bary(3, m) = (q(2) * (xy(1, 2) - xy(1, 1)) - q(1) * (xy(2, 2) - xy(2, 1))) / det
+        tp%bary(1, m) = 1.0_dp - tp%bary(2, m) - tp%bary(3, m)
+      end do
+    end do
+    tp%n = m
+  end function tri_points
+
+  !> Append to out(:,:,1:nout) the pieces of triangle t on either side of the line x = c.
+  pure subroutine cut_at_x(t, c, out, nout)
+    real(dp), intent(in) :: t(2, 3), c
+    real(dp), intent(inout) :: out(:,:,:)
+    integer, intent(inout) :: nout
+    real(dp) :: a(2), b(2), d(2), p(2), q(2)
+    integer :: lone, k, nleft
+    logical :: left(3)
+    left = t(1, :) < c
+    nleft = count(left)
+    if (nleft == 0 .or. nleft == 3) then
+      nout = nout + 1
+      out(:, :, nout) = t
+      return
+    end if
+    ! the vertex alone on its side, and the other two in counter-clockwise order
+    do k = 1, 3
+      if (count(left .eqv. left(k)) == 1) lone = k
+    end do
+    a = t(:, lone)
+    b = t(:, mod(lone, 3) + 1)
+    d = t(:, mod(lone + 1, 3) + 1)
+    p = a + (c - a(1)) / (b(1) - a(1)) * (b - a)
+    q = a + (c - a(1)) / (d(1) - a(1)) * (d - a)
+    out(:, :, nout + 1) = reshape([a, p, q], [2, 3])
+    out(:, :, nout + 2) = reshape([p, b, d], [2, 3])
+    out(:, :, nout + 3) = reshape([p, d, q], [2, 3])
+    nout = nout + 3
+  end subroutine cut_at_x
+
+  pure real(dp) function tri_area(t)
+    real(dp), intent(in) :: t(2, 3)
+    tri_area = 0.5_dp * ((t(1, 2) - t(1, 1)) * (t(2, 3) - t(2, 1)) - (t(1, 3) - t(1, 1)) * (t(2, 2) - t(2, 1)))
+  end function tri_area
 
   !> A rule exact for every polynomial of total degree <= `degree` (degree >= 0).
   function tri_rule(degree) result(rule)

@@ -40,7 +40,7 @@ module dualsig_scenes
   real(dp), parameter :: amp0 = 0.5_dp, amp1 = 10.0_dp, amp2 = 5000.0_dp
 
   character(len=*), parameter :: scene_names = &
-    'p1_contact, p2_contact, p1_lshape_load, p2_lshape_load'
+    'p1_contact, p2_contact, p1_lshape_load, p2_lshape_load, p2_holed_load'
 
   type :: scene_t
     character(len=32) :: name = ''
@@ -50,6 +50,8 @@ module dualsig_scenes
     integer :: gamma_u_markers(max_markers) = 0 !! default Gamma_u markers (0 = unused slot)
     integer :: gamma_a_markers(max_markers) = 0 !! default Gamma_a markers (0 = unused slot)
     character(len=160) :: description = ''
+    integer :: nbreaks = 0                      !! abscissae x where f has a kink (may be 0)
+    real(dp) :: x_breaks(4) = 0.0_dp            !! used to split the line integrals of lambda_bar
     procedure(scalar_field), pointer, nopass :: f => null()
     procedure(scalar_field), pointer, nopass :: u => null()
     procedure(vector_field), pointer, nopass :: grad_u => null()
@@ -70,6 +72,8 @@ contains
       scene%domain = 'unit_square'
       scene%gamma_a_markers(1:4) = [1, 2, 3, 4]
       scene%description = 'P1 on (0,1)^2, manufactured: contact for x<1/3, separation for x>1/3 on y=0'
+      scene%nbreaks = 1
+      scene%x_breaks(1) = c                     ! f is continuous with a kink at x = c
       scene%f => p1_contact_f
       scene%u => p1_contact_u
       scene%grad_u => p1_contact_grad
@@ -80,6 +84,8 @@ contains
       scene%gamma_a_markers(1) = 1
       scene%gamma_u_markers(1:3) = [2, 3, 4]
       scene%description = 'P2 on (0,1)^2, manufactured: Signorini on y=0 (contact x<1/3), u=0 elsewhere'
+      scene%nbreaks = 1
+      scene%x_breaks(1) = c
       scene%f => p2_contact_f
       scene%u => p2_contact_u
       scene%grad_u => p2_contact_grad
@@ -94,6 +100,13 @@ contains
       scene%gamma_u_markers(1:3) = [4, 5, 6]
       scene%description = 'P2 on the L-shape, f = 20 x + 5 sin(pi y): Signorini on the lower sides'
       scene%f => lshape_p2_f
+    case ('p2_holed_load')
+      scene%problem = PROBLEM_P2
+      scene%gamma_u_markers(1:2) = [4, 8]
+      scene%gamma_a_markers(1:6) = [1, 2, 3, 5, 6, 7]
+      scene%description = 'P2 on the square with a square hole, f = 10 cos(2 pi x) cos(2 pi y): ' // &
+        'u = 0 on the left side of each loop, Signorini elsewhere'
+      scene%f => holed_p2_f
     case default
       call set_error(st, DS_ERR_INPUT, 'unknown scene "' // trim(name) // '"; expected one of: ' &
                      // scene_names)
@@ -205,4 +218,9 @@ contains
     real(dp), intent(in) :: x, y
     f = 20.0_dp * x + 5.0_dp * sin(pi * y)
   end function lshape_p2_f
+
+  pure real(dp) function holed_p2_f(x, y) result(f)
+    real(dp), intent(in) :: x, y
+    f = 10.0_dp * cos(2.0_dp * pi * x) * cos(2.0_dp * pi * y)
+  end function holed_p2_f
 end module dualsig_scenes

@@ -6,7 +6,8 @@
 !>     A y^m = b + B^T z^m,      z^{m+1} = z^m - rho (B y^m - e),
 !>     then z_k <- max(0, z_k) on the inequality rows.
 !>
-!> Every iteration costs two triangular solves with the stored Cholesky factor.
+!> Every iteration costs one solve with the stored factorisation of A (a sparse CHOLMOD
+!> factor, or element-local LAPACK factors for a block-diagonal A: dualsig_spd_solver).
 !> rho: given, or automatic = rho_auto_factor / lambda_max(B A^{-1} B^T), lambda_max from
 !> the power iteration (one solve per step).  Convergence needs 0 < rho < 2 / lambda_max.
 !> A diverging iteration (residual grows by divergence_factor) is detected: with an
@@ -18,7 +19,7 @@
 module dualsig_solver_uzawa
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: rect_t, rect_matvec, rect_matvec_t
-  use dualsig_sparse_direct, only: cholesky_t, cholesky_solve
+  use dualsig_spd_solver, only: spd_solver_t
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   use dualsig_strings, only: itoa, rtoa
@@ -57,8 +58,8 @@ contains
 
   !> Run Uzawa from the multipliers z (intent inout: start and result); y returns the
   !> minimiser for the final multipliers.
-  subroutine uzawa_solve(chol, b, bmat, row_kind, e, y, z, settings, res, st)
-    type(cholesky_t), intent(in) :: chol
+  subroutine uzawa_solve(solver, b, bmat, row_kind, e, y, z, settings, res, st)
+    class(spd_solver_t), intent(in) :: solver
     real(dp), intent(in) :: b(:)
     type(rect_t), intent(in) :: bmat
     integer, intent(in) :: row_kind(:)
@@ -83,7 +84,7 @@ contains
     if (bnorm == 0.0_dp) bnorm = 1.0_dp
     automatic = settings%rho == 0.0_dp
     if (automatic) then
-      call uzawa_lambda_max(chol, bmat, res%lambda_max, res%power_iterations, st)
+      call uzawa_lambda_max(solver, bmat, res%lambda_max, res%power_iterations, st)
       if (st%code /= 0) return
       if (res%lambda_max <= 0.0_dp) then
         call set_error(st, DS_ERR_NUMERIC, 'uzawa: B A^-1 B^T has no positive eigenvalue (no constraints?)')
@@ -138,7 +139,7 @@ contains
     subroutine solve_for_y()
       call rect_matvec_t(bmat, z, rhs)
       rhs = rhs + b
-      call cholesky_solve(chol, rhs, y, st)
+      call solver%solve(rhs, y, st)
       if (st%code /= 0) return
       call rect_matvec(bmat, y, w)
       w = w - e
@@ -155,8 +156,8 @@ contains
 
   !> lambda_max of B A^{-1} B^T by the power iteration (Rayleigh quotients; stops when the
   !> estimate changes by less than power_rel_tol, at most power_max_iter solves).
-  subroutine uzawa_lambda_max(chol, bmat, lambda, iterations, st)
-    type(cholesky_t), intent(in) :: chol
+  subroutine uzawa_lambda_max(solver, bmat, lambda, iterations, st)
+    class(spd_solver_t), intent(in) :: solver
     type(rect_t), intent(in) :: bmat
     real(dp), intent(out) :: lambda
     integer, intent(out) :: iterations
@@ -175,7 +176,7 @@ contains
     lambda_old = 0.0_dp
     do k = 1, power_max_iter
       call rect_matvec_t(bmat, v, rhs)
-      call cholesky_solve(chol, rhs, x, st)
+      call solver%solve(rhs, x, st)
       if (st%code /= 0) return
       call rect_matvec(bmat, x, w)
       lambda = dot_product(v, w)

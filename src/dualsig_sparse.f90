@@ -8,8 +8,8 @@ module dualsig_sparse
   implicit none
   private
 
-  public :: csr_t, csr_pattern_from_edges, csr_add, csr_add_block, csr_get, csr_matvec, &
-            csr_is_symmetric, csr_nnz
+  public :: csr_t, csr_pattern_from_edges, csr_pattern_from_cliques, csr_add, csr_add_block, &
+            csr_get, csr_matvec, csr_is_symmetric, csr_nnz
   public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t
 
   type :: csr_t
@@ -89,6 +89,76 @@ contains
       end do
     end do
   end subroutine csr_pattern_from_edges
+
+  !> Pattern in which all indices listed in one column of cliques(k, m) couple with each
+  !> other (element matrices: each column holds the unknowns of one element); duplicates
+  !> across cliques are merged, the diagonal is always present, values zero.
+  subroutine csr_pattern_from_cliques(n, cliques, a)
+    integer, intent(in) :: n
+    integer, intent(in) :: cliques(:,:)
+    type(csr_t), intent(out) :: a
+    integer, allocatable :: cap(:), start(:), fill(:), cols(:)
+    integer :: k, m, c, r, i, p, q, nk, tmp
+    nk = size(cliques, 1)
+    allocate (cap(n), source=1)
+    do c = 1, size(cliques, 2)
+      do r = 1, nk
+        cap(cliques(r, c)) = cap(cliques(r, c)) + nk
+      end do
+    end do
+    allocate (start(n + 1), fill(n))
+    start(1) = 1
+    do i = 1, n
+      start(i + 1) = start(i) + cap(i)
+    end do
+    allocate (cols(start(n + 1) - 1))
+    do i = 1, n
+      cols(start(i)) = i
+      fill(i) = 1
+    end do
+    do c = 1, size(cliques, 2)
+      do r = 1, nk
+        i = cliques(r, c)
+        do m = 1, nk
+          cols(start(i) + fill(i)) = cliques(m, c)
+          fill(i) = fill(i) + 1
+        end do
+      end do
+    end do
+    ! sort each row, drop duplicates
+    a%n = n
+    allocate (a%rowptr(n + 1), a%diag(n))
+    a%rowptr(1) = 1
+    do i = 1, n
+      do p = start(i) + 1, start(i) + fill(i) - 1
+        tmp = cols(p)
+        q = p - 1
+        do while (q >= start(i))
+          if (cols(q) <= tmp) exit
+          cols(q + 1) = cols(q)
+          q = q - 1
+        end do
+        cols(q + 1) = tmp
+      end do
+      k = 1
+      do p = start(i) + 1, start(i) + fill(i) - 1
+        if (cols(p) /= cols(start(i) + k - 1)) then
+          cols(start(i) + k) = cols(p)
+          k = k + 1
+        end if
+      end do
+      fill(i) = k
+      a%rowptr(i + 1) = a%rowptr(i) + k
+    end do
+    allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1))
+    a%val = 0.0_dp
+    do i = 1, n
+      a%col(a%rowptr(i):a%rowptr(i + 1) - 1) = cols(start(i):start(i) + fill(i) - 1)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (a%col(p) == i) a%diag(i) = p
+      end do
+    end do
+  end subroutine csr_pattern_from_cliques
 
   !> a(i, j) += v.  The entry must be in the pattern (returns ok = .false. otherwise).
   pure subroutine csr_add(a, i, j, v, ok)

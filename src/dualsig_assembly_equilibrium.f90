@@ -1,0 +1,218 @@
+!> Assembly for the equilibrium elements of the P2 dual (Section 4, (4.5)-(4.10)).
+!>
+!> Two parametrisations of the same space:
+!> - element parameters beta (6 per triangle, index 6 (t - 1) + k, convention of
+!>   dualsig_elements_equilibrium), constrained by D beta = 0 -- one divergence row (4.9)
+!>   per triangle and two continuity rows (4.10) per interior edge -- and E beta >= e on
+!>   Gamma_a (two rows per Gamma_a edge); A is block diagonal (the A_e).  This is the
+!>   paper's formulation, solved by plain Uzawa.
+!> - global edge-end fluxes x: for edge e with end nodes n1 < n2 (edge_nodes) and the
+!>   reference normal n_e = outward normal of the triangle edge_tri(1, e), unknown
+!>   2 (e - 1) + j is q.n_e at node n_j.  A triangle's parameter is beta_k = sgn * x(dof)
+!>   with sgn = +1 in edge_tri(1, e) and -1 in its neighbour, so the continuity rows
+!>   (4.10) hold by construction (the space is BDM1).  What remains is D x = 0 (one
+!>   divergence row per triangle) and simple bounds x >= g_h on the Gamma_a unknowns
+!>   (on a boundary edge n_e is the outward normal).
+module dualsig_assembly_equilibrium
+  use dualsig_kinds, only: dp
+  use dualsig_mesh, only: mesh_t
+  use dualsig_sparse, only: csr_t, rect_t, csr_pattern_from_cliques, csr_add_block, rect_from_triplets
+  use dualsig_elements_equilibrium, only: param_side, param_vertex, equilibrium_c_matrix, &
+                                          equilibrium_element_matrix, equilibrium_div_row
+  use dualsig_solver_uzawa, only: ROW_EQUALITY, ROW_INEQUALITY
+  use dualsig_status, only: status_t
+  implicit none
+  private
+
+  public :: equilibrium_map_t, equilibrium_map, equilibrium_elements, assemble_equilibrium_global, &
+            equilibrium_to_global, equilibrium_to_local, equilibrium_div_rows_global, &
+            equilibrium_rows_local, equilibrium_gamma_a_dofs
+
+  type :: equilibrium_map_t
+    integer :: ntri = 0
+    integer :: nedge = 0
+    integer, allocatable :: dof(:,:)     !! (6, ntri) global unknown of local parameter k
+    real(dp), allocatable :: sgn(:,:)    !! (6, ntri) beta_k = sgn * x(dof)
+  end type equilibrium_map_t
+
+contains
+
+  !> The map from element parameters to global edge-end fluxes.
+  subroutine equilibrium_map(mesh, map)
+    type(mesh_t), intent(in) :: mesh
+    type(equilibrium_map_t), intent(out) :: map
+    integer :: t, k, e, node, jend
+    map%ntri = mesh%ntri
+    map%nedge = mesh%nedge
+    allocate (map%dof(6, mesh%ntri), map%sgn(6, mesh%ntri))
+    do t = 1, mesh%ntri
+      do k = 1, 6
+        e = mesh%tri_edge(param_side(k), t)
+        node = mesh%tri(param_vertex(k), t)
+        jend = merge(1, 2, node == mesh%edge_nodes(1, e))
+        map%dof(k, t) = 2 * (e - 1) + jend
+        map%sgn(k, t) = merge(1.0_dp, -1.0_dp, mesh%edge_tri(1, e) == t)
+      end do
+    end do
+  end subroutine equilibrium_map
+
+  !> Per element: C_e, A_e (4.6) and the divergence row d_e (4.9).
+  subroutine equilibrium_elements(mesh, c, ae, d, st)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), allocatable, intent(out) :: c(:,:,:), ae(:,:,:), d(:,:)
+    type(status_t), intent(out) :: st
+    real(dp) :: xy(2, 3)
+    integer :: t
+    allocate (c(6, 6, mesh%ntri), ae(6, 6, mesh%ntri), d(6, mesh%ntri))
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call equilibrium_c_matrix(xy, c(:, :, t), st)
+      if (st%code /= 0) return
+      call equilibrium_element_matrix(xy, c(:, :, t), ae(:, :, t))
+      call equilibrium_div_row(xy, d(:, t))
+    end do
+  end subroutine equilibrium_elements
+
+  !> A = sum_e P_e^T A_e P_e in the global edge-end unknowns (2 nedge), CSR.
+  subroutine assemble_equilibrium_global(map, ae, a)
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: ae(:,:,:)
+    type(csr_t), intent(out) :: a
+    real(dp) :: blk(6, 6)
+    integer :: t, r, s
+    call csr_pattern_from_cliques(2 * map%nedge, map%dof, a)
+    do t = 1, map%ntri
+      do r = 1, 6
+        do s = 1, 6
+          blk(r, s) = map%sgn(r, t) * map%sgn(s, t) * ae(r, s, t)
+        end do
+      end do
+      call csr_add_block(a, map%dof(:, t), blk)
+    end do
+  end subroutine assemble_equilibrium_global
+
+  !> Global load b_x = sum_e P_e^T b_e from the element loads be(6, ntri).
+  pure subroutine equilibrium_to_global(map, be, bx)
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: be(:,:)
+    real(dp), intent(out) :: bx(:)
+    integer :: t, k
+    bx = 0.0_dp
+    do t = 1, map%ntri
+      do k = 1, 6
+        bx(map%dof(k, t)) = bx(map%dof(k, t)) + map%sgn(k, t) * be(k, t)
+      end do
+    end do
+  end subroutine equilibrium_to_global
+
+  !> Element parameters beta(6, ntri) of the global fluxes x.
+  pure subroutine equilibrium_to_local(map, x, beta)
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: x(:)
+    real(dp), intent(out) :: beta(:,:)
+    integer :: t
+    do t = 1, map%ntri
+      beta(:, t) = map%sgn(:, t) * x(map%dof(:, t))
+    end do
+  end subroutine equilibrium_to_local
+
+  !> The divergence rows (4.9) in the global unknowns: row t is sum_k d_k sgn_k x(dof_k).
+  subroutine equilibrium_div_rows_global(map, d, dmat)
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: d(:,:)
+    type(rect_t), intent(out) :: dmat
+    integer :: t
+    integer, allocatable :: r(:), c(:)
+    real(dp), allocatable :: v(:)
+    allocate (r(6 * map%ntri), c(6 * map%ntri), v(6 * map%ntri))
+    do t = 1, map%ntri
+      r(6 * t - 5:6 * t) = t
+      c(6 * t - 5:6 * t) = map%dof(:, t)
+      v(6 * t - 5:6 * t) = d(:, t) * map%sgn(:, t)
+    end do
+    call rect_from_triplets(map%ntri, 2 * map%nedge, r, c, v, dmat)
+  end subroutine equilibrium_div_rows_global
+
+  !> The global unknowns on Gamma_a and their lower bounds g_h: bnd(dof) = gh(end, j) for
+  !> boundary edge j with is_gamma_a(j); on_gamma_a(dof) marks them.
+  subroutine equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd)
+    type(mesh_t), intent(in) :: mesh
+    logical, intent(in) :: is_gamma_a(:)
+    real(dp), intent(in) :: gh(:,:)
+    logical, allocatable, intent(out) :: on_gamma_a(:)
+    real(dp), allocatable, intent(out) :: bnd(:)
+    integer :: j, e, i, node
+    allocate (on_gamma_a(2 * mesh%nedge), source=.false.)
+    allocate (bnd(2 * mesh%nedge), source=0.0_dp)
+    do j = 1, mesh%nbedge
+      if (.not. is_gamma_a(j)) cycle
+      e = mesh%bedge_edge(j)
+      do i = 1, 2
+        node = mesh%bedge_nodes(i, j)
+        associate (dof => 2 * (e - 1) + merge(1, 2, node == mesh%edge_nodes(1, e)))
+          on_gamma_a(dof) = .true.
+          bnd(dof) = gh(i, j)
+        end associate
+      end do
+    end do
+  end subroutine equilibrium_gamma_a_dofs
+
+  !> The constraint rows of (4.8) in the element parameters (index 6 (t-1) + k): first the
+  !> divergence rows (4.9), then two continuity rows (4.10) per interior edge, both with
+  !> free multipliers; then the Gamma_a rows beta >= g_h (E, one unit per row).
+  subroutine equilibrium_rows_local(mesh, map, d, on_gamma_a, bnd, bmat, row_kind, e)
+    type(mesh_t), intent(in) :: mesh
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: d(:,:)
+    logical, intent(in) :: on_gamma_a(:)
+    real(dp), intent(in) :: bnd(:)
+    type(rect_t), intent(out) :: bmat
+    integer, allocatable, intent(out) :: row_kind(:)
+    real(dp), allocatable, intent(out) :: e(:)
+    integer, allocatable :: first(:), r(:), c(:)
+    real(dp), allocatable :: v(:)
+    integer :: t, k, nrow, nnz, g, idx, ndof
+    ndof = 2 * mesh%nedge
+    allocate (first(ndof), source=0)
+    allocate (r(6 * mesh%ntri + 2 * ndof), c(6 * mesh%ntri + 2 * ndof), v(6 * mesh%ntri + 2 * ndof))
+    nnz = 0
+    do t = 1, mesh%ntri
+      do k = 1, 6
+        nnz = nnz + 1
+        r(nnz) = t
+        c(nnz) = 6 * (t - 1) + k
+        v(nnz) = d(k, t)
+      end do
+    end do
+    nrow = mesh%ntri
+    ! continuity: the two parameters that share a global unknown sum to zero
+    do t = 1, mesh%ntri
+      do k = 1, 6
+        g = map%dof(k, t)
+        idx = 6 * (t - 1) + k
+        if (first(g) == 0) then
+          first(g) = idx
+        else
+          nrow = nrow + 1
+          r(nnz + 1:nnz + 2) = nrow
+          c(nnz + 1:nnz + 2) = [first(g), idx]
+          v(nnz + 1:nnz + 2) = 1.0_dp
+          nnz = nnz + 2
+        end if
+      end do
+    end do
+    allocate (row_kind(nrow + count(on_gamma_a)), source=ROW_EQUALITY)
+    allocate (e(nrow + count(on_gamma_a)), source=0.0_dp)
+    do g = 1, ndof
+      if (.not. on_gamma_a(g)) cycle
+      nrow = nrow + 1
+      nnz = nnz + 1
+      r(nnz) = nrow
+      c(nnz) = first(g)            ! the only parameter of a boundary unknown (sgn = +1)
+      v(nnz) = 1.0_dp
+      row_kind(nrow) = ROW_INEQUALITY
+      e(nrow) = bnd(g)
+    end do
+    call rect_from_triplets(nrow, 6 * mesh%ntri, r(1:nnz), c(1:nnz), v(1:nnz), bmat)
+  end subroutine equilibrium_rows_local
+end module dualsig_assembly_equilibrium

@@ -1,0 +1,134 @@
+!> Equilibrium elements (Section 4): divergence-free linear vector fields on a triangle,
+!> described by six flux parameters.
+!>
+!> Convention (the paper's C_e^{-1}).  Triangle a1 a2 a3 counter-clockwise; side
+!> S_k = a_k a_{k+1} (a4 = a1) with length l_k and outward unit normal nu^(k) -- the same
+!> as local edge k of dualsig_mesh.  The flux parameters are the values of q.nu at the two
+!> ends of each side:
+!>
+!>     beta_1 = q(a1).nu^(3)   beta_2 = q(a1).nu^(1)      (side 3 at a1, side 1 at a1)
+!>     beta_3 = q(a2).nu^(1)   beta_4 = q(a2).nu^(2)      (side 1 at a2, side 2 at a2)
+!>     beta_5 = q(a3).nu^(2)   beta_6 = q(a3).nu^(3)      (side 2 at a3, side 3 at a3)
+!>
+!> so w^e = (q1(a1), q2(a1), q1(a2), q2(a2), q1(a3), q2(a3)) = C_e beta with
+!> C_e^{-1} = blockdiag([nu3; nu1], [nu1; nu2], [nu2; nu3]) (rows are normals).
+!> div q = 0 on T  <=>  (4.9): l1 (beta_2 + beta_3) + l2 (beta_4 + beta_5) + l3 (beta_6 + beta_1) = 0
+!> (the integral of q.nu over the boundary of T, sides integrated exactly by the trapezoid
+!> rule since q.nu is linear on a side).  A_e = C_e^T int(Phi1 Phi1^T + Phi2 Phi2^T) C_e
+!> (4.6): beta^T A_e beta = int_T |q|^2.  b_e of (4.7) is computed as
+!> b_e = -C_e^T int_T (lambda_1 Phi1 + lambda_2 Phi2): the transpose follows from
+!> (lambda, q) = int lambda . (Phi^T C_e beta); the print shows C_e.
+module dualsig_elements_equilibrium
+  use dualsig_kinds, only: dp
+  use dualsig_quadrature, only: tri_points_t
+  use dualsig_elements_p1, only: p1_element_mass
+  use dualsig_status, only: status_t, set_error, DS_ERR_LAPACK
+  use dualsig_strings, only: itoa
+  implicit none
+  private
+
+  public :: param_side, param_vertex, equilibrium_sides, equilibrium_c_matrix, &
+            equilibrium_element_matrix, equilibrium_div_row, equilibrium_element_load, &
+            equilibrium_field
+
+  integer, parameter :: param_side(6) = [3, 1, 1, 2, 2, 3]     !! side of parameter k
+  integer, parameter :: param_vertex(6) = [1, 1, 2, 2, 3, 3]   !! vertex of parameter k
+
+contains
+
+  !> Outward unit normals nu(:, k) and lengths l(k) of the sides S_k = a_k a_{k+1}.
+  pure subroutine equilibrium_sides(xy, nu, l)
+    real(dp), intent(in) :: xy(2, 3)
+    real(dp), intent(out) :: nu(2, 3), l(3)
+    real(dp) :: d(2)
+    integer :: k
+    do k = 1, 3
+      d = xy(:, mod(k, 3) + 1) - xy(:, k)
+      l(k) = hypot(d(1), d(2))
+      nu(:, k) = [d(2), -d(1)] / l(k)          ! counter-clockwise: outward is to the right
+    end do
+  end subroutine equilibrium_sides
+
+  !> C_e (w = C_e beta), from the printed C_e^{-1} by LAPACK dgesv.
+  subroutine equilibrium_c_matrix(xy, c, st)
+    real(dp), intent(in) :: xy(2, 3)
+    real(dp), intent(out) :: c(6, 6)
+    type(status_t), intent(out) :: st
+    real(dp) :: cinv(6, 6), nu(2, 3), l(3)
+    integer :: ipiv(6), info, k
+    external :: dgesv
+    call equilibrium_sides(xy, nu, l)
+    cinv = 0.0_dp
+    do k = 1, 6
+      ! row k: beta_k = q(a_v) . nu^(s); q(a_v) occupies columns 2v-1, 2v
+      cinv(k, 2 * param_vertex(k) - 1:2 * param_vertex(k)) = nu(:, param_side(k))
+    end do
+    c = 0.0_dp
+    do k = 1, 6
+      c(k, k) = 1.0_dp
+    end do
+    call dgesv(6, 6, cinv, 6, ipiv, c, 6, info)
+    if (info /= 0) then
+      call set_error(st, DS_ERR_LAPACK, 'equilibrium element: C_e^{-1} is singular (dgesv info = ' // &
+        itoa(info) // '): degenerate triangle')
+    end if
+  end subroutine equilibrium_c_matrix
+
+  !> A_e = C_e^T kron(M_e, I_2) C_e: beta^T A_e beta = int_T |q|^2  (4.6).
+  pure subroutine equilibrium_element_matrix(xy, c, ae)
+    real(dp), intent(in) :: xy(2, 3), c(6, 6)
+    real(dp), intent(out) :: ae(6, 6)
+    real(dp) :: me(3, 3), m2(6, 6)
+    integer :: a, b
+    call p1_element_mass(xy, me)
+    m2 = 0.0_dp
+    do a = 1, 3
+      do b = 1, 3
+        m2(2 * a - 1, 2 * b - 1) = me(a, b)
+        m2(2 * a, 2 * b) = me(a, b)
+      end do
+    end do
+    ae = matmul(transpose(c), matmul(m2, c))
+    ae = 0.5_dp * (ae + transpose(ae))           ! exact symmetry for the Cholesky factor
+  end subroutine equilibrium_element_matrix
+
+  !> Coefficients of the divergence condition (4.9): d . beta = int_{dT} q.nu = |T| div q.
+  pure subroutine equilibrium_div_row(xy, d)
+    real(dp), intent(in) :: xy(2, 3)
+    real(dp), intent(out) :: d(6)
+    real(dp) :: nu(2, 3), l(3)
+    integer :: k
+    call equilibrium_sides(xy, nu, l)
+    do k = 1, 6
+      d(k) = 0.5_dp * l(param_side(k))
+    end do
+  end subroutine equilibrium_div_row
+
+  !> b_e = -C_e^T int_T (lam_1 Phi1 + lam_2 Phi2) (4.7), from the values lam(:, k) of the
+  !> particular field at the quadrature points tp of the triangle.
+  pure subroutine equilibrium_element_load(c, tp, lam, be)
+    real(dp), intent(in) :: c(6, 6)
+    type(tri_points_t), intent(in) :: tp
+    real(dp), intent(in) :: lam(:,:)
+    real(dp), intent(out) :: be(6)
+    real(dp) :: v(6)
+    integer :: k, a
+    v = 0.0_dp
+    do k = 1, tp%n
+      do a = 1, 3
+        v(2 * a - 1) = v(2 * a - 1) + tp%w(k) * lam(1, k) * tp%bary(a, k)
+        v(2 * a) = v(2 * a) + tp%w(k) * lam(2, k) * tp%bary(a, k)
+      end do
+    end do
+    be = -matmul(transpose(c), v)
+  end subroutine equilibrium_element_load
+
+  !> The field q at the point with barycentric coordinates bary, from C_e and beta.
+  pure function equilibrium_field(c, beta, bary) result(q)
+    real(dp), intent(in) :: c(6, 6), beta(6), bary(3)
+    real(dp) :: q(2)
+    real(dp) :: w(6)
+    w = matmul(c, beta)
+    q = bary(1) * w(1:2) + bary(2) * w(3:4) + bary(3) * w(5:6)
+  end function equilibrium_field
+end module dualsig_elements_equilibrium

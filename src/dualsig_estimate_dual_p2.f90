@@ -1,0 +1,111 @@
+!> A posteriori error bound and two-sided energy bounds for problem P2 (Section 6).
+!>
+!> For u~ in K_2h and an admissible lambda^h = lambda^f + q^h (div lambda^h = -f,
+!> lambda^h . nu >= 0 on Gamma_a):
+!>
+!>   (6.26)     |u - u~|_1^2 <= E(lambda^h, u~) = ||lambda^h - grad u~||^2
+!>                                             + 2 int_{Gamma_a} (lambda^h . nu) u~ ds,
+!>   Remark 6.7 ||lambda^h - grad u||^2 <= E(lambda^h, u~),
+!>   Thm 6.4    2 (f, u~) - |u~|_1^2 <= |u|_1^2 = (f, u) <= ||lambda^h||^2.
+!>
+!> E is summed from non-negative element and edge terms (Remark 6.1).  On a Gamma_a edge
+!> lambda^h . nu = q^h . nu - g_h is linear, and so is u~: the edge term is integrated
+!> exactly, with the flux taken >= 0 at the edge ends (it is, up to rounding).
+module dualsig_estimate_dual_p2
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: scalar_field, vector_field
+  use dualsig_mesh, only: mesh_t
+  use dualsig_quadrature, only: tri_rule_t, tri_points_t, tri_points
+  use dualsig_elements_p1, only: p1_gradients
+  use dualsig_elements_equilibrium, only: equilibrium_field
+  use dualsig_problem_dual_p2, only: dual_p2_field_t, dual_p2_lambda
+  implicit none
+  private
+
+  public :: dual_p2_bounds_t, dual_p2_bounds, dual_p2_error
+
+  type :: dual_p2_bounds_t
+    real(dp) :: est = 0.0_dp             !! E(lambda^h, u~) of (6.26)
+    real(dp) :: energy_lo = 0.0_dp       !! 2 (f, u~) - |u~|_1^2
+    real(dp) :: energy_hi = 0.0_dp       !! ||lambda^h||^2
+    real(dp) :: boundary_term = 0.0_dp   !! 2 int_{Gamma_a} (lambda^h . nu) u~ ds
+    real(dp), allocatable :: est_elem(:) !! (ntri) element contributions, sum = est
+  end type dual_p2_bounds_t
+
+contains
+
+  !> The bounds for the nodal u~ and the dual field; f is integrated with `rule`.
+  subroutine dual_p2_bounds(mesh, u, field, f, is_gamma_a, rule, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:)
+    type(dual_p2_field_t), intent(in) :: field
+    procedure(scalar_field) :: f
+    logical, intent(in) :: is_gamma_a(:)
+    type(tri_rule_t), intent(in) :: rule
+    type(dual_p2_bounds_t), intent(out) :: bnd
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, flux(2), ub(2), len
+    real(dp) :: bary(3)
+    type(tri_points_t) :: tp
+    integer :: t, k, j, i, lv
+    allocate (bnd%est_elem(mesh%ntri))
+    fu = 0.0_dp
+    uu = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_gradients(xy, grad, area)
+      ue = u(mesh%tri(:, t))
+      gu = matmul(grad, ue)
+      e1 = 0.0_dp
+      tp = tri_points(xy, rule, field%pf%breaks(1:field%pf%nbreaks))
+      do k = 1, tp%n
+        lam = dual_p2_lambda(field, mesh, f, t, tp%bary(:, k))
+        e1 = e1 + tp%w(k) * sum((lam - gu)**2)
+        bnd%energy_hi = bnd%energy_hi + tp%w(k) * sum(lam**2)
+        fu = fu + tp%w(k) * f(tp%p(1, k), tp%p(2, k)) * dot_product(tp%bary(:, k), ue)
+      end do
+      uu = uu + area * sum(gu**2)
+      bnd%est_elem(t) = e1
+    end do
+    do j = 1, mesh%nbedge
+      if (.not. is_gamma_a(j)) cycle
+      t = mesh%bedge_tri(j)
+      len = mesh%bedge_length(j)
+      do i = 1, 2
+        ! lambda^h . nu = q^h . nu - g_h at the edge end i
+        lv = findloc(mesh%tri(:, t), mesh%bedge_nodes(i, j), dim=1)
+        bary = 0.0_dp
+        bary(lv) = 1.0_dp
+        flux(i) = max(0.0_dp, dot_product(equilibrium_field(field%c(:, :, t), field%beta(:, t), bary), &
+                                          mesh%bedge_normal(:, j)) - field%pf%gh(i, j))
+        ub(i) = u(mesh%bedge_nodes(i, j))
+      end do
+      e1 = 2.0_dp * len / 6.0_dp * (2.0_dp * flux(1) * ub(1) + flux(1) * ub(2) + flux(2) * ub(1) &
+                                    + 2.0_dp * flux(2) * ub(2))
+      bnd%boundary_term = bnd%boundary_term + e1
+      bnd%est_elem(t) = bnd%est_elem(t) + e1
+    end do
+    bnd%est = sum(bnd%est_elem)
+    bnd%energy_lo = 2.0_dp * fu - uu
+  end subroutine dual_p2_bounds
+
+  !> ||grad u - lambda^h||_0 for the exact solution u.
+  real(dp) function dual_p2_error(mesh, field, f, grad_u, rule) result(err)
+    type(mesh_t), intent(in) :: mesh
+    type(dual_p2_field_t), intent(in) :: field
+    procedure(scalar_field) :: f
+    procedure(vector_field) :: grad_u
+    type(tri_rule_t), intent(in) :: rule
+    real(dp) :: xy(2, 3)
+    type(tri_points_t) :: tp
+    integer :: t, k
+    err = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      tp = tri_points(xy, rule, field%pf%breaks(1:field%pf%nbreaks))
+      do k = 1, tp%n
+        err = err + tp%w(k) * sum((grad_u(tp%p(1, k), tp%p(2, k)) - dual_p2_lambda(field, mesh, f, t, tp%bary(:, k)))**2)
+      end do
+    end do
+    err = sqrt(err)
+  end function dual_p2_error
+end module dualsig_estimate_dual_p2

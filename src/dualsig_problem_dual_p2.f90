@@ -1,0 +1,241 @@
+!> The dual problem of P2 by equilibrium elements (Sections 4-6).
+!>
+!> lambda^h = lambda^f + q^h, where lambda^f = lambda_bar + curl(omega) is the particular
+!> field of dualsig_particular_field (div lambda^f = -f, lambda^f . nu = -g_h exactly on
+!> every Gamma_a edge) and q^h minimises J(q) = 1/2 ||q||^2 + (lambda^f, q) over the
+!> equilibrium elements with q.nu >= g_h on Gamma_a (4.5).  Then lambda^h . nu = q.nu - g_h
+!> >= 0 on Gamma_a and div lambda^h = -f: lambda^h is admissible (in U_2) up to the solver's
+!> divergence defect, and the bound (6.26) is guaranteed.
+!>
+!> Solvers:
+!> - 'augmented' (the fast variant): continuity eliminated by global edge-end fluxes (BDM1),
+!>   the divergence rows by an augmented Lagrangian whose matrix A + r D^T D is factorised by
+!>   CHOLMOD, the Gamma_a rows are simple bounds for the active-set method;
+!> - 'uzawa': the paper's Uzawa on (4.8) in the element parameters, with free multipliers
+!>   for D (divergence and continuity rows) and non-negative ones for E (Gamma_a), each
+!>   iteration an element-local solve with the factored A_e (LAPACK).  Its iterate is made
+!>   continuous (the two sides of an edge averaged) and clipped to the Gamma_a bounds; the
+!>   remaining divergence defect is reported.
+module dualsig_problem_dual_p2
+  use dualsig_kinds, only: dp, i8
+  use dualsig_fields, only: scalar_field
+  use dualsig_mesh, only: mesh_t
+  use dualsig_sparse, only: csr_t, rect_t, rect_matvec
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_sparse_direct, only: ORDERING_BEST
+  use dualsig_spd_solver, only: block_diag_spd_t
+  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER
+  use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
+  use dualsig_solver_augmented, only: augmented_settings_t, augmented_result_t, augmented_solve
+  use dualsig_elements_equilibrium, only: equilibrium_element_load, equilibrium_field
+  use dualsig_assembly_equilibrium, only: equilibrium_map_t, equilibrium_map, equilibrium_elements, &
+                                          assemble_equilibrium_global, equilibrium_to_global, &
+                                          equilibrium_to_local, equilibrium_div_rows_global, &
+                                          equilibrium_rows_local, equilibrium_gamma_a_dofs
+  use dualsig_particular_field, only: particular_field_t, particular_field_build, lambda_f_at
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
+  use dualsig_strings, only: itoa
+  implicit none
+  private
+
+  public :: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve, dual_p2_lambda, &
+            dual_p2_check_assumptions
+
+  !> Degree of the quadrature for the element loads b_e (lambda^f is not a polynomial).
+  integer, parameter :: load_degree = 10
+
+  type :: dual_p2_settings_t
+    character(len=16) :: method = 'augmented'  !! 'augmented' or 'uzawa'
+    real(dp) :: rho = 0.0_dp                   !! Uzawa step, 0 = automatic
+    real(dp) :: tol = 1.0e-10_dp               !! Uzawa tolerance
+    integer :: max_iter = 20000                !! Uzawa iterations
+    real(dp) :: penalty = 0.0_dp               !! augmented Lagrangian r, 0 = automatic
+    real(dp) :: defect_tol = 1.0e-13_dp        !! augmented: relative divergence defect
+    integer :: ordering = ORDERING_BEST
+  end type dual_p2_settings_t
+
+  type :: dual_p2_result_t
+    integer :: iterations = 0          !! Uzawa iterations, or outer augmented-Lagrangian steps
+    integer :: factorisations = 0      !! augmented: CHOLMOD (re)factorisations
+    real(dp) :: residual = 0.0_dp      !! Uzawa residual
+    real(dp) :: defect = 0.0_dp        !! relative divergence defect of the returned field
+    logical :: converged = .false.
+    real(dp) :: rho = 0.0_dp
+    real(dp) :: lambda_max = 0.0_dp
+    real(dp) :: penalty = 0.0_dp
+    integer(i8) :: nnz_factor = 0
+    character(len=8) :: ordering = ''
+    integer :: nconstraints = 0
+    integer :: nactive = 0
+  end type dual_p2_result_t
+
+  type :: dual_p2_field_t
+    type(particular_field_t) :: pf          !! lambda^f
+    real(dp), allocatable :: c(:,:,:)       !! (6, 6, ntri) C_e
+    real(dp), allocatable :: beta(:,:)      !! (6, ntri) flux parameters of q^h
+  end type dual_p2_field_t
+
+contains
+
+  !> The paper's assumptions: (A2) every boundary loop contains an edge of Gamma_u.
+  !> (A3), the end points of Gamma_a are mesh vertices, holds by construction: Gamma_a is a
+  !> union of marked boundary edges.
+  subroutine dual_p2_check_assumptions(mesh, is_gamma_a, st)
+    type(mesh_t), intent(in) :: mesh
+    logical, intent(in) :: is_gamma_a(:)
+    type(status_t), intent(out) :: st
+    integer :: l
+    do l = 1, mesh%nloop
+      if (all(is_gamma_a(mesh%loop_bedge(mesh%loop_start(l):mesh%loop_start(l + 1) - 1)))) then
+        call set_error(st, DS_ERR_INPUT, 'dual P2: boundary loop ' // itoa(l) // &
+          ' has no Gamma_u edge; the equilibrium dual needs (A2): every boundary loop meets Gamma_u')
+        return
+      end if
+    end do
+  end subroutine dual_p2_check_assumptions
+
+  !> Solve (4.5) on `mesh`; is_gamma_a(nbedge) marks the Signorini edges, x_start is the
+  !> abscissa where lambda_bar's integration starts (f must be defined on the mesh's
+  !> bounding box).
+  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks)
+    type(mesh_t), intent(in) :: mesh
+    procedure(scalar_field) :: f
+    logical, intent(in) :: is_gamma_a(:)
+    real(dp), intent(in) :: x_start
+    type(dual_p2_settings_t), intent(in) :: settings
+    type(dual_p2_field_t), intent(out) :: field
+    type(dual_p2_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: breaks(:)   !! abscissae of kinks of f (see particular field)
+    type(equilibrium_map_t) :: map
+    type(tri_rule_t) :: rule
+    type(tri_points_t) :: tp
+    real(dp), allocatable :: ae(:,:,:), d(:,:), be(:,:), lam(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:)
+    logical, allocatable :: on_gamma_a(:)
+    integer, allocatable :: kind(:), row_kind(:)
+    type(csr_t) :: a
+    type(rect_t) :: dmat, bmat
+    type(augmented_settings_t) :: aug
+    type(augmented_result_t) :: ares
+    type(block_diag_spd_t) :: blocks
+    type(uzawa_settings_t) :: uset
+    type(uzawa_result_t) :: ures
+    integer :: t, k
+
+    call dual_p2_check_assumptions(mesh, is_gamma_a, st)
+    if (st%code /= 0) return
+    call particular_field_build(mesh, f, x_start, is_gamma_a, field%pf, st, breaks)
+    if (.not. is_ok(st)) return
+    call equilibrium_elements(mesh, field%c, ae, d, st)
+    if (st%code /= 0) return
+    ! element loads b_e = -C_e^T int lambda^f . Phi  (4.7)
+    rule = tri_rule(load_degree)
+    allocate (be(6, mesh%ntri))
+    do t = 1, mesh%ntri
+      tp = tri_points(mesh%xy(:, mesh%tri(:, t)), rule, field%pf%breaks(1:field%pf%nbreaks))
+      if (allocated(lam)) deallocate (lam)
+      allocate (lam(2, tp%n))
+      do k = 1, tp%n
+        lam(:, k) = lambda_f_at(field%pf, mesh, f, t, tp%p(1, k), tp%p(2, k))
+      end do
+      call equilibrium_element_load(field%c(:, :, t), tp, lam, be(:, t))
+    end do
+    call equilibrium_map(mesh, map)
+    call equilibrium_gamma_a_dofs(mesh, is_gamma_a, field%pf%gh, on_gamma_a, bnd)
+    allocate (field%beta(6, mesh%ntri), x(2 * mesh%nedge))
+    res%nconstraints = mesh%ntri + count(on_gamma_a)
+
+    select case (trim(settings%method))
+    case ('augmented')
+      call assemble_equilibrium_global(map, ae, a)
+      allocate (bx(2 * mesh%nedge))
+      call equilibrium_to_global(map, be, bx)
+      call equilibrium_div_rows_global(map, d, dmat)
+      allocate (kind(2 * mesh%nedge), source=BOUND_FREE)
+      where (on_gamma_a) kind = BOUND_LOWER
+      x = 0.0_dp
+      aug%r = settings%penalty
+      aug%tol = settings%defect_tol
+      aug%ordering = settings%ordering
+      call augmented_solve(a, bx, dmat, kind, bnd, x, aug, ares, st)
+      if (.not. is_ok(st)) return
+      res%iterations = ares%outer
+      res%factorisations = ares%factorisations
+      res%converged = ares%converged
+      res%penalty = ares%r
+      res%nnz_factor = ares%nnz_factor
+      res%ordering = ares%ordering
+      res%nactive = ares%nactive
+      res%residual = ares%kkt_residual
+    case ('uzawa')
+      call blocks%factor(ae, st)
+      if (st%code /= 0) return
+      call equilibrium_rows_local(mesh, map, d, on_gamma_a, bnd, bmat, row_kind, e)
+      allocate (y(6 * mesh%ntri), z(bmat%m), source=0.0_dp)
+      uset%rho = settings%rho
+      uset%tol = settings%tol
+      uset%max_iter = settings%max_iter
+      call uzawa_solve(blocks, reshape(be, [6 * mesh%ntri]), bmat, row_kind, e, y, z, uset, ures, st)
+      if (.not. is_ok(st)) return
+      res%iterations = ures%iterations
+      res%residual = ures%residual
+      res%converged = ures%converged
+      res%rho = ures%rho
+      res%lambda_max = ures%lambda_max
+      res%nconstraints = bmat%m
+      res%nactive = count(z(mesh%ntri + 1:) > 0.0_dp .and. row_kind(mesh%ntri + 1:) == 1)
+      ! continuous fluxes: average the two parameters of each global unknown; Gamma_a bounds
+      call average_to_global(map, reshape(y, [6, mesh%ntri]), x)
+      where (on_gamma_a) x = max(x, bnd)
+    case default
+      call set_error(st, DS_ERR_INPUT, 'dual P2: unknown method "' // trim(settings%method) // &
+        '"; expected augmented or uzawa')
+      return
+    end select
+    call equilibrium_to_local(map, x, field%beta)
+    res%defect = divergence_defect(d, field%beta)
+  end subroutine dual_p2_solve
+
+  !> lambda^h = lambda^f + q^h at the point with barycentric coordinates bary of triangle t.
+  function dual_p2_lambda(field, mesh, f, t, bary) result(v)
+    type(dual_p2_field_t), intent(in) :: field
+    type(mesh_t), intent(in) :: mesh
+    procedure(scalar_field) :: f
+    integer, intent(in) :: t
+    real(dp), intent(in) :: bary(3)
+    real(dp) :: v(2)
+    real(dp) :: p(2)
+    p = matmul(mesh%xy(:, mesh%tri(:, t)), bary)
+    v = lambda_f_at(field%pf, mesh, f, t, p(1), p(2)) + equilibrium_field(field%c(:, :, t), field%beta(:, t), bary)
+  end function dual_p2_lambda
+
+  !> x(dof) = mean over the (one or two) parameters sharing it of sgn * beta.
+  subroutine average_to_global(map, beta, x)
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: beta(:,:)
+    real(dp), intent(out) :: x(:)
+    real(dp), allocatable :: cnt(:)
+    integer :: t, k
+    allocate (cnt(size(x)), source=0.0_dp)
+    x = 0.0_dp
+    do t = 1, map%ntri
+      do k = 1, 6
+        x(map%dof(k, t)) = x(map%dof(k, t)) + map%sgn(k, t) * beta(k, t)
+        cnt(map%dof(k, t)) = cnt(map%dof(k, t)) + 1.0_dp
+      end do
+    end do
+    x = x / cnt
+  end subroutine average_to_global
+
+  !> max over triangles of |d_t . beta_t| / (|d_t| . |beta_t|): the relative defect of (4.9).
+  pure real(dp) function divergence_defect(d, beta) result(defect)
+    real(dp), intent(in) :: d(:,:), beta(:,:)
+    integer :: t
+    real(dp) :: s
+    defect = 0.0_dp
+    do t = 1, size(d, 2)
+      s = sum(abs(d(:, t) * beta(:, t)))
+      if (s > 0.0_dp) defect = max(defect, abs(sum(d(:, t) * beta(:, t))) / s)
+    end do
+  end function divergence_defect
+end module dualsig_problem_dual_p2
