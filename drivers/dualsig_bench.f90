@@ -9,7 +9,11 @@
 !> For the dual problem of P1 (p1_contact), per level: Uzawa (the paper's algorithm) and
 !> the feasible active-set solver, iterations, seconds, the ratio of the whole dual solve
 !> to ONE CHOLMOD analyse + factorisation of the Gram matrix A, err_q_Q and sqrt(est).
-!> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv.
+!> For the equilibrium dual of P2 (p2_contact), per level: the paper's plain Uzawa on (4.8)
+!> (element-local LAPACK solves) and the augmented-Lagrangian variant (CHOLMOD), iterations,
+!> seconds and ||grad u - lambda^h||.
+!> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv,
+!> out/bench_dual_p2.csv.
 program dualsig_bench
   use, intrinsic :: iso_fortran_env, only: int64
   use dualsig_kinds, only: dp
@@ -30,6 +34,8 @@ program dualsig_bench
   use dualsig_assembly_dual_p1, only: assemble_dual_p1
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
+  use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve
+  use dualsig_estimate_dual_p2, only: dual_p2_error
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -40,6 +46,8 @@ program dualsig_bench
   character(len=10), parameter :: scenes(2) = ['p1_contact', 'p2_contact']
   integer, parameter :: max_level_dual = 7        !! finest level of the dual benchmark
   integer, parameter :: max_level_uzawa = 6       !! Uzawa needs O(1/h) iterations: up to this level
+  integer, parameter :: max_level_p2 = 7           !! finest level of the P2 dual benchmark
+  integer, parameter :: max_level_p2_uzawa = 3     !! plain Uzawa on (4.8): ~16x more iterations per level
 
   type(scene_t) :: scene
   type(status_t) :: st
@@ -93,8 +101,51 @@ program dualsig_bench
   close (csv)
   write (*, '(a)') 'dualsig_bench: table written to out/bench_primal.csv'
   call bench_dual_p1()
+  call bench_dual_p2()
 
 contains
+
+  !> Equilibrium dual of P2: plain Uzawa (4.8) against the augmented-Lagrangian variant.
+  subroutine bench_dual_p2()
+    type(dual_p2_settings_t) :: dset
+    type(dual_p2_result_t) :: dres
+    type(dual_p2_field_t) :: field
+    logical, allocatable :: is_gamma_a(:)
+    real(dp) :: t0, secs, err
+    integer :: m, dcsv
+    character(len=9) :: methods(2) = ['uzawa    ', 'augmented']
+    open (newunit=dcsv, file='out/bench_dual_p2.csv', status='replace')
+    write (dcsv, '(a)') 'level,ntri,method,iterations,factorisations,seconds,defect,err_lambda'
+    write (*, '(/,a)') 'dualsig_bench: equilibrium dual of P2 (p2_contact)'
+    write (*, '(a)') '  lvl     ntri      method   iters  factor   seconds     div_defect   ||grad u - lambda_h||'
+    call scene_lookup('p2_contact', scene, st)
+    call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
+    do level = 1, max_level_p2
+      if (level > 1) then
+        call mesh_refine_uniform(mesh, finer, st)
+        mesh = finer
+      end if
+      if (level < 2) cycle
+      is_gamma_a = mesh%bedge_marker == 1
+      do m = 1, 2
+        if (methods(m) == 'uzawa' .and. level > max_level_p2_uzawa) cycle
+        dset%method = methods(m)
+        dset%tol = max(1.0e-10_dp, 1.0e-4_dp * (mesh_h(mesh) / sqrt(2.0_dp))**2)
+        dset%max_iter = 1000000
+        t0 = wall()
+        call dual_p2_solve(mesh, scene%f, is_gamma_a, 0.0_dp, dset, field, dres, st, scene%x_breaks(1:1))
+        secs = wall() - t0
+        err = dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(12))
+        write (*, '(i5,i9,a12,i8,i8,f10.3,es15.3,es24.4)') level, mesh%ntri, trim(methods(m)), &
+          dres%iterations, dres%factorisations, secs, dres%defect, err
+        write (dcsv, '(i0,",",i0,",",a,",",i0,",",i0,",",es12.4,",",es12.4,",",es14.6)') level, mesh%ntri, &
+          trim(methods(m)), dres%iterations, dres%factorisations, secs, dres%defect, err
+        flush (6)
+      end do
+    end do
+    close (dcsv)
+    write (*, '(a)') 'dualsig_bench: table written to out/bench_dual_p2.csv'
+  end subroutine bench_dual_p2
 
   !> Dual problem of P1: Uzawa and the active-set solver against one factorisation of A.
   subroutine bench_dual_p1()

@@ -46,6 +46,9 @@ module dualsig_driver
   !> Degree of the quadrature of the P2 bounds (lambda^h is not a polynomial; each point
   !> costs a line integral of f).
   integer, parameter :: bound_degree_p2 = 12
+  !> Largest relative divergence defect of the P2 dual field for which est is reported as a
+  !> guaranteed bound without warning.
+  real(dp), parameter :: admissible_defect = 1.0e-10_dp
   !> Lanczos settings for the automatic SOR parameter.
   integer, parameter :: lanczos_max_steps = 400
   real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
@@ -95,6 +98,7 @@ contains
     integer, intent(in) :: unit
     type(table_t), intent(out), optional :: table
     type(run_config_t) :: resolved
+    logical :: stop_run
     type(scene_t) :: scene
     type(mesh_t) :: mesh, finer
     type(primal_system_t) :: sys
@@ -254,15 +258,8 @@ contains
         call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, settings, res, st_solve)
       end if
       seconds = wall_seconds() - seconds
-      if (.not. is_ok(st_solve)) then
-        st = st_solve
-        st%msg = 'level ' // itoa(level) // ': ' // st%msg
-        return
-      end if
-      if (st_solve%code == DS_WARN_NOT_CONVERGED) then
-        nonconverged = nonconverged + 1
-        write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_solve%msg
-      end if
+      call take_status(st_solve, stop_run)
+      if (stop_run) return
 
       call table_new_row(tab)
       call table_set(tab, 'level', real(level, dp))
@@ -399,15 +396,8 @@ contains
       t0 = wall_seconds()
       call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual)
       t0 = wall_seconds() - t0
-      if (.not. is_ok(st_dual)) then
-        st = st_dual
-        st%msg = 'level ' // itoa(level) // ': ' // st%msg
-        return
-      end if
-      if (st_dual%code == DS_WARN_NOT_CONVERGED) then
-        nonconverged = nonconverged + 1
-        write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_dual%msg
-      end if
+      call take_status(st_dual, stop_run)
+      if (stop_run) return
       call dual_p1_bounds(mesh, u, q, scene%f, bound_rule, bounds, scene%x_breaks(1:scene%nbreaks))
       call table_set(tab, 'dual_iters', real(dres%iterations, dp))
       call table_set(tab, 'dual_s', t0)
@@ -449,14 +439,13 @@ contains
       call dual_p2_solve(mesh, scene%f, is_gamma_a, minval(mesh%xy(1, :)), d2set, field, dres, st_dual, &
                          scene%x_breaks(1:scene%nbreaks))
       t0 = wall_seconds() - t0
-      if (.not. is_ok(st_dual)) then
-        st = st_dual
-        st%msg = 'level ' // itoa(level) // ': ' // st%msg
-        return
-      end if
-      if (st_dual%code == DS_WARN_NOT_CONVERGED) then
+      call take_status(st_dual, stop_run)
+      if (stop_run) return
+      if (dres%defect > admissible_defect) then
         nonconverged = nonconverged + 1
-        write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_dual%msg
+        write (unit, '(a,i0,a,es9.2,a)') 'warning: level ', level, ': the dual field has a divergence defect ', &
+          dres%defect, ' (relative): lambda_h is not admissible and est is NOT a guaranteed bound' // &
+          ' (plain Uzawa stops on its own residual; method = ''augmented'' is admissible to rounding)'
       end if
       call dual_p2_bounds(mesh, u, field, scene%f, is_gamma_a, bound_rule_p2, bounds)
       call table_set(tab, 'dual_iters', real(dres%iterations, dp))
@@ -476,6 +465,21 @@ contains
       if (dual_method == 'augmented') write (unit, '(a,es10.3,a,a)') '    penalty r = ', dres%penalty, &
         ', ordering ', trim(dres%ordering)
     end subroutine dual_level_p2
+
+    !> Take over the status of a step of the current level: an error becomes the run's error
+    !> (stop_run), a warning is counted and printed.
+    subroutine take_status(st_step, stop_run)
+      type(status_t), intent(in) :: st_step
+      logical, intent(out) :: stop_run
+      stop_run = .not. is_ok(st_step)
+      if (stop_run) then
+        st = st_step
+        st%msg = 'level ' // itoa(level) // ': ' // st%msg
+      else if (st_step%code == DS_WARN_NOT_CONVERGED) then
+        nonconverged = nonconverged + 1
+        write (unit, '(a)') 'warning: level ' // itoa(level) // ': ' // st_step%msg
+      end if
+    end subroutine take_status
 
     !> Set column `name` of the current row to `value` and `rate_name` to its observed order.
     subroutine set_with_rate(name, rate_name, value)

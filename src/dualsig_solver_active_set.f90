@@ -22,7 +22,8 @@ module dualsig_solver_active_set
   implicit none
   private
 
-  public :: active_set_settings_t, active_set_result_t, active_set_solve
+  public :: active_set_settings_t, active_set_result_t, active_set_solve, active_set_workspace_t, &
+            active_set_workspace_free
 
   type :: active_set_settings_t
     integer :: max_iter = 100            !! maximum number of active-set changes
@@ -30,7 +31,8 @@ module dualsig_solver_active_set
   end type active_set_settings_t
 
   type :: active_set_result_t
-    integer :: iterations = 0            !! factorisations = active sets tried
+    integer :: iterations = 0            !! active sets tried (solves)
+    integer :: factorisations = 0        !! (re)factorisations (0 when a kept factor fitted)
     real(dp) :: kkt_residual = 0.0_dp    !! relative KKT residual of the returned x
     logical :: converged = .false.       !! the active set was reproduced
     integer :: nactive = 0               !! bounded unknowns at their bound
@@ -38,10 +40,30 @@ module dualsig_solver_active_set
     character(len=8) :: ordering = ''    !! ordering used by CHOLMOD
   end type active_set_result_t
 
+  !> State kept between calls for the SAME matrix (e.g. the outer steps of an augmented
+  !> Lagrangian, where only the right-hand side changes): the factor of the reduced matrix
+  !> and the active set it belongs to.  When the first predicted active set equals the kept
+  !> one, the call starts with a solve instead of a factorisation.  Free with
+  !> active_set_workspace_free.
+  type :: active_set_workspace_t
+    logical :: have_factor = .false.
+    type(cholesky_t) :: chol
+    type(csr_t) :: ar                          !! the reduced matrix of `fixed`
+    logical, allocatable :: fixed(:)
+  end type active_set_workspace_t
+
 contains
 
+  !> Release the factor kept in a workspace.
+  subroutine active_set_workspace_free(ws)
+    type(active_set_workspace_t), intent(inout) :: ws
+    call cholesky_free(ws%chol)
+    ws%have_factor = .false.
+  end subroutine active_set_workspace_free
+
   !> Solve from the start x (which predicts the first active set); x returns the solution.
-  subroutine active_set_solve(a, f, kind, bnd, x, settings, res, st)
+  !> With `ws` the factorisation is kept for the next call with the same matrix a.
+  subroutine active_set_solve(a, f, kind, bnd, x, settings, res, st, ws)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: f(:)
     integer, intent(in) :: kind(:)
@@ -50,43 +72,55 @@ contains
     type(active_set_settings_t), intent(in) :: settings
     type(active_set_result_t), intent(out) :: res
     type(status_t), intent(out) :: st
-    type(csr_t) :: ar
-    type(cholesky_t) :: chol
+    type(active_set_workspace_t), intent(inout), optional, target :: ws
+    type(active_set_workspace_t), target :: local
+    type(active_set_workspace_t), pointer :: w
     logical, allocatable :: fixed(:), fixed_new(:)
     real(dp), allocatable :: g(:), rhs(:), xb(:)
     integer :: i, p, it
+    logical :: reuse
 
+    if (present(ws)) then
+      w => ws
+    else
+      w => local
+    end if
     allocate (fixed(a%n), fixed_new(a%n), g(a%n), rhs(a%n), xb(a%n))
     call predict_fixed(fixed)
-    ar = a
+    if (.not. w%have_factor) w%ar = a
     do it = 1, settings%max_iter
       ! reduced system: identity rows/columns for fixed unknowns, bound values moved right
       xb = 0.0_dp
       where (fixed) xb = bnd
       call csr_matvec(a, xb, rhs)
       rhs = f - rhs
-      do i = 1, a%n
-        do p = a%rowptr(i), a%rowptr(i + 1) - 1
-          if (fixed(i) .or. fixed(a%col(p))) then
-            ar%val(p) = 0.0_dp
-          else
-            ar%val(p) = a%val(p)
-          end if
+      where (fixed) rhs = bnd
+      reuse = w%have_factor
+      if (reuse) reuse = all(w%fixed .eqv. fixed)
+      if (.not. reuse) then
+        do i = 1, a%n
+          do p = a%rowptr(i), a%rowptr(i + 1) - 1
+            if (fixed(i) .or. fixed(a%col(p))) then
+              w%ar%val(p) = 0.0_dp
+            else
+              w%ar%val(p) = a%val(p)
+            end if
+          end do
+          if (fixed(i)) w%ar%val(a%diag(i)) = 1.0_dp
         end do
-        if (fixed(i)) then
-          ar%val(a%diag(i)) = 1.0_dp
-          rhs(i) = bnd(i)
+        if (.not. w%have_factor) then
+          call cholesky_factor(w%ar, w%chol, st, settings%ordering)
+        else
+          call cholesky_refactor(w%ar, w%chol, st)
         end if
-      end do
-      if (it == 1) then
-        call cholesky_factor(ar, chol, st, settings%ordering)
-        res%nnz_factor = chol%nnz_factor
-        res%ordering = chol%ordering
-      else
-        call cholesky_refactor(ar, chol, st)
+        if (st%code /= 0) exit
+        w%have_factor = .true.
+        w%fixed = fixed
+        res%factorisations = res%factorisations + 1
       end if
-      if (st%code /= 0) exit
-      call cholesky_solve(chol, rhs, x, st)
+      res%nnz_factor = w%chol%nnz_factor
+      res%ordering = w%chol%ordering
+      call cholesky_solve(w%chol, rhs, x, st)
       if (st%code /= 0) exit
       res%iterations = it
       call predict_fixed(fixed_new)
@@ -96,14 +130,14 @@ contains
       end if
       fixed = fixed_new
     end do
-    call cholesky_free(chol)
+    if (.not. present(ws)) call active_set_workspace_free(local)
     if (st%code /= 0) return
     where (kind == BOUND_LOWER) x = max(x, bnd)
     where (kind == BOUND_FIXED) x = bnd
     res%nactive = count(fixed .and. kind == BOUND_LOWER)
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, g)
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, &
-      'active set: no stable active set after ' // itoa(res%iterations) // ' factorisations')
+      'active set: no stable active set after ' // itoa(res%iterations) // ' iterations')
 
   contains
 

@@ -14,7 +14,8 @@
 module dualsig_solver_augmented
   use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, rect_t, rect_matvec, rect_matvec_t, csr_add_block
-  use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
+  use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve, &
+                                       active_set_workspace_t, active_set_workspace_free
   use dualsig_sparse_direct, only: ORDERING_BEST
   use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT
   use dualsig_strings, only: itoa, rtoa
@@ -33,7 +34,7 @@ module dualsig_solver_augmented
 
   type :: augmented_result_t
     integer :: outer = 0                  !! multiplier updates + 1
-    integer :: factorisations = 0         !! total active-set iterations
+    integer :: factorisations = 0         !! CHOLMOD (re)factorisations in all outer steps
     real(dp) :: defect = 0.0_dp           !! final relative ||D x||
     logical :: converged = .false.
     real(dp) :: r = 0.0_dp                !! penalty used
@@ -44,7 +45,7 @@ module dualsig_solver_augmented
   end type augmented_result_t
 
   !> Automatic penalty: r = r_auto_factor * mean(diag A) / mean(diag D^T D).
-  real(dp), parameter :: r_auto_factor = 1.0e6_dp
+  real(dp), parameter :: r_auto_factor = 1.0e8_dp
 
 contains
 
@@ -61,6 +62,7 @@ contains
     type(csr_t) :: ar
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
+    type(active_set_workspace_t) :: ws
     real(dp), allocatable :: mu(:), w(:), rhs(:), dtd_diag(:), absx(:), scale_w(:)
     integer :: i, p, q, outer
     integer, allocatable :: cols(:)
@@ -99,10 +101,13 @@ contains
     do outer = 1, settings%max_outer
       call rect_matvec_t(dmat, mu, rhs)
       rhs = rhs + b
-      call active_set_solve(ar, rhs, kind, bnd, x, aset, ares, st)
-      if (.not. is_ok(st)) return
+      call active_set_solve(ar, rhs, kind, bnd, x, aset, ares, st, ws)
+      if (.not. is_ok(st)) then
+        call active_set_workspace_free(ws)
+        return
+      end if
       res%outer = outer
-      res%factorisations = res%factorisations + ares%iterations
+      res%factorisations = res%factorisations + ares%factorisations
       res%nnz_factor = ares%nnz_factor
       res%ordering = ares%ordering
       res%nactive = ares%nactive
@@ -117,6 +122,7 @@ contains
       end if
       mu = mu - res%r * w
     end do
+    call active_set_workspace_free(ws)
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'augmented Lagrangian: defect ' // &
       rtoa(res%defect) // ' > tol after ' // itoa(res%outer) // ' outer steps')
   end subroutine augmented_solve
