@@ -5,19 +5,34 @@
 !>
 !> (the same kinds as dualsig_solver_psor).  With g = A x - F, a bounded unknown is
 !> predicted active when g_i - A_ii (x_i - bnd_i) > 0; the active and the fixed unknowns
-!> are set to their bound and the others solve the reduced system.  The reduced system
-!> keeps the full pattern (rows and columns of active unknowns become identity rows), so
-!> the symbolic analysis is done once and every later iteration only refactorises.
-!> The iteration stops when the active set repeats (then the KKT conditions hold up to the
-!> accuracy of the solve).  A cycle or the iteration limit is reported as not converged;
-!> in every case the returned x is projected on the bounds, so it is always feasible.
+!> are held at their bound and the others solve the reduced system M(F) x = r, where M(F)
+!> keeps the pattern of A with identity rows/columns for the held set F.
+!>
+!> Factorise once, correct small changes.  The factor of M(F1) is kept (optionally across
+!> calls, in a workspace).  When the next set F differs from F1 in k <= max_lowrank
+!> unknowns D, M(F) shares the block A_RR (R = the others) with M(F1), and
+!>     A_RR^{-1} b_R = [y - Z C1^{-1} y(D)]_R,   y = M(F1)^{-1} [b_R; 0],
+!>     Z = M(F1)^{-1} E_D,  C1 = Z(D, :)                                  (capacitance)
+!>     x_D = S^{-1} (b_D - B^T A_RR^{-1} b_R),  S = M(F)_DD - B^T A_RR^{-1} B,
+!>     x_R = A_RR^{-1} (b_R - B x_D),          B = M(F)_RD                 (bordering)
+!> which costs 2k + 2 solves with the existing factor instead of a refactorisation.  The
+!> choice is made by measured cost: bordering is used while its predicted time (solves
+!> timed in this call) is below the time of a numeric refactorisation (timed too; the
+!> symbolic analysis is reused), and never for k > max_lowrank.
+!>
+!> Termination and safeguards: the method stops when the predicted set repeats (the KKT
+!> conditions then hold to the accuracy of the solve).  A set seen before (a cycle) or the
+!> iteration limit switches to projected SOR from the current projected iterate, which
+!> converges for every SPD matrix; the result is reported with its KKT residual.  The
+!> returned x is always projected on the bounds, hence feasible.
 module dualsig_solver_active_set
   use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, csr_matvec
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
-                                   cholesky_free, ORDERING_BEST
-  use dualsig_solver_psor, only: BOUND_LOWER, BOUND_FIXED, kkt_residual
-  use dualsig_status, only: status_t, set_warning, DS_WARN_NOT_CONVERGED
+                                   cholesky_free, ORDERING_AMD
+  use dualsig_solver_psor, only: BOUND_LOWER, BOUND_FIXED, kkt_residual, psor_settings_t, &
+                                 psor_result_t, psor_solve
+  use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_LAPACK
   use dualsig_strings, only: itoa
   implicit none
   private
@@ -27,30 +42,40 @@ module dualsig_solver_active_set
 
   type :: active_set_settings_t
     integer :: max_iter = 100            !! maximum number of active-set changes
-    integer :: ordering = ORDERING_BEST  !! fill-reducing ordering (dualsig_sparse_direct)
+    integer :: ordering = ORDERING_AMD   !! fill-reducing ordering (dualsig_sparse_direct)
+    integer :: max_lowrank = 24          !! largest change handled by bordering (0: always refactorise)
+    real(dp) :: fallback_tol = 1.0e-10_dp    !! KKT tolerance of the projected-SOR fallback
+    integer :: fallback_max_iter = 1000000   !! sweeps of the fallback
   end type active_set_settings_t
 
   type :: active_set_result_t
     integer :: iterations = 0            !! active sets tried (solves)
     integer :: factorisations = 0        !! (re)factorisations (0 when a kept factor fitted)
+    integer :: lowrank_solves = 0        !! iterations done by bordering on the kept factor
     real(dp) :: kkt_residual = 0.0_dp    !! relative KKT residual of the returned x
-    logical :: converged = .false.       !! the active set was reproduced
+    logical :: converged = .false.       !! the active set was reproduced (or the fallback converged)
+    logical :: fallback = .false.        !! projected SOR was needed (cycle or limit)
     integer :: nactive = 0               !! bounded unknowns at their bound
-    integer(i8) :: nnz_factor = 0    !! nonzeros of the Cholesky factor
+    integer(i8) :: nnz_factor = 0        !! nonzeros of the Cholesky factor
     character(len=8) :: ordering = ''    !! ordering used by CHOLMOD
   end type active_set_result_t
 
   !> State kept between calls for the SAME matrix (e.g. the outer steps of an augmented
   !> Lagrangian, where only the right-hand side changes): the factor of the reduced matrix
-  !> and the active set it belongs to.  When the first predicted active set equals the kept
-  !> one, the call starts with a solve instead of a factorisation.  Free with
-  !> active_set_workspace_free.
+  !> and the held set it belongs to.  Free with active_set_workspace_free.
   type :: active_set_workspace_t
     logical :: have_factor = .false.
     type(cholesky_t) :: chol
     type(csr_t) :: ar                          !! the reduced matrix of `fixed`
     logical, allocatable :: fixed(:)
   end type active_set_workspace_t
+
+  !> Sets remembered for cycle detection.
+  integer, parameter :: history_len = 64
+  !> Changes bordered before any solve or factorisation has been timed.
+  integer, parameter :: untimed_lowrank = 4
+  !> Share of a first factorisation (analysis + numeric) taken as the numeric part.
+  real(dp), parameter :: refactor_share = 0.7_dp
 
 contains
 
@@ -77,8 +102,10 @@ contains
     type(active_set_workspace_t), pointer :: w
     logical, allocatable :: fixed(:), fixed_new(:)
     real(dp), allocatable :: g(:), rhs(:), xb(:)
-    integer :: i, p, it
-    logical :: reuse
+    integer(i8) :: hist(3, history_len)
+    integer :: it, nhist, k
+    logical :: cycled
+    real(dp) :: t_solve, t_refactor, t0
 
     if (present(ws)) then
       w => ws
@@ -86,41 +113,45 @@ contains
       w => local
     end if
     allocate (fixed(a%n), fixed_new(a%n), g(a%n), rhs(a%n), xb(a%n))
-    call predict_fixed(fixed)
+    if (any(x /= 0.0_dp)) then
+      ! warm start (e.g. the interpolated coarser solution): its contact set is the first
+      ! guess; the residual A x - F of an interpolated field is O(1) at the new nodes and
+      ! would mispredict where u and its flux are both small
+      fixed = kind == BOUND_FIXED .or. (kind == BOUND_LOWER .and. x <= bnd)
+    else
+      call predict_fixed(fixed)
+    end if
     if (.not. w%have_factor) w%ar = a
+    nhist = 0
+    cycled = .false.
+    t_solve = -1.0_dp           ! unknown until measured
+    t_refactor = -1.0_dp
     do it = 1, settings%max_iter
-      ! reduced system: identity rows/columns for fixed unknowns, bound values moved right
+      ! right-hand side of the reduced system: bound values moved to the right
       xb = 0.0_dp
       where (fixed) xb = bnd
       call csr_matvec(a, xb, rhs)
       rhs = f - rhs
       where (fixed) rhs = bnd
-      reuse = w%have_factor
-      if (reuse) reuse = all(w%fixed .eqv. fixed)
-      if (.not. reuse) then
-        do i = 1, a%n
-          do p = a%rowptr(i), a%rowptr(i + 1) - 1
-            if (fixed(i) .or. fixed(a%col(p))) then
-              w%ar%val(p) = 0.0_dp
-            else
-              w%ar%val(p) = a%val(p)
-            end if
-          end do
-          if (fixed(i)) w%ar%val(a%diag(i)) = 1.0_dp
-        end do
-        if (.not. w%have_factor) then
-          call cholesky_factor(w%ar, w%chol, st, settings%ordering)
-        else
-          call cholesky_refactor(w%ar, w%chol, st)
-        end if
+      k = -1
+      if (w%have_factor) k = count(w%fixed .neqv. fixed)
+      if (k == 0) then
+        t0 = wall_seconds()
+        call cholesky_solve(w%chol, rhs, x, st)
+        t_solve = wall_seconds() - t0
+      else if (k > 0 .and. bordering_pays(k)) then
+        call bordered_solve(a, w, fixed, rhs, x, st)
+        res%lowrank_solves = res%lowrank_solves + 1
+      else
+        t0 = wall_seconds()
+        call factor_reduced(fixed)
         if (st%code /= 0) exit
-        w%have_factor = .true.
-        w%fixed = fixed
-        res%factorisations = res%factorisations + 1
+        if (res%factorisations > 1) t_refactor = wall_seconds() - t0
+        if (t_refactor < 0.0_dp) t_refactor = refactor_share * (wall_seconds() - t0)
+        t0 = wall_seconds()
+        call cholesky_solve(w%chol, rhs, x, st)
+        t_solve = wall_seconds() - t0
       end if
-      res%nnz_factor = w%chol%nnz_factor
-      res%ordering = w%chol%ordering
-      call cholesky_solve(w%chol, rhs, x, st)
       if (st%code /= 0) exit
       res%iterations = it
       call predict_fixed(fixed_new)
@@ -128,18 +159,39 @@ contains
         res%converged = .true.
         exit
       end if
+      ! cycle detection: the new set was tried before
+      call remember(fixed)
+      if (seen(fixed_new)) then
+        cycled = .true.
+        exit
+      end if
       fixed = fixed_new
     end do
+    res%nnz_factor = w%chol%nnz_factor
+    res%ordering = w%chol%ordering
     if (.not. present(ws)) call active_set_workspace_free(local)
     if (st%code /= 0) return
     where (kind == BOUND_LOWER) x = max(x, bnd)
     where (kind == BOUND_FIXED) x = bnd
-    res%nactive = count(fixed .and. kind == BOUND_LOWER)
+    if (.not. res%converged) call fall_back()
+    if (.not. is_ok(st)) return
+    res%nactive = count(kind == BOUND_LOWER .and. x <= bnd)
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, g)
-    if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, &
-      'active set: no stable active set after ' // itoa(res%iterations) // ' iterations')
 
   contains
+
+    !> Bordering with k changed unknowns (2k + 2 solves) is predicted cheaper than a numeric
+    !> refactorisation; before anything was timed, only small k are bordered.
+    logical function bordering_pays(k)
+      integer, intent(in) :: k
+      if (k > settings%max_lowrank) then
+        bordering_pays = .false.
+      else if (t_solve < 0.0_dp .or. t_refactor < 0.0_dp) then
+        bordering_pays = k <= untimed_lowrank
+      else
+        bordering_pays = (2 * k + 2) * t_solve < t_refactor
+      end if
+    end function bordering_pays
 
     !> The unknowns held at their bound by the next step: fixed ones, and bounded ones with
     !> g_i - A_ii (x_i - bnd_i) > 0 for the current x (g = A x - F is left in g).
@@ -153,5 +205,195 @@ contains
         if (kind(j) == BOUND_LOWER) at_bound(j) = g(j) - a%val(a%diag(j)) * (x(j) - bnd(j)) > 0.0_dp
       end do
     end subroutine predict_fixed
+
+    !> Factorise M(held) (numeric only after the first time) and keep it in the workspace.
+    subroutine factor_reduced(held)
+      logical, intent(in) :: held(:)
+      call reduced_values(a, held, w%ar)
+      if (.not. w%have_factor) then
+        call cholesky_factor(w%ar, w%chol, st, settings%ordering)
+      else
+        call cholesky_refactor(w%ar, w%chol, st)
+      end if
+      if (st%code /= 0) return
+      w%have_factor = .true.
+      w%fixed = held
+      res%factorisations = res%factorisations + 1
+    end subroutine factor_reduced
+
+    !> Three small hashes of a set (count, sum of indices, sum of squares mod a prime).
+    pure function set_hash(s) result(h)
+      logical, intent(in) :: s(:)
+      integer(i8) :: h(3)
+      integer :: j
+      integer(i8), parameter :: prime = 2147483647_i8
+      h = 0
+      do j = 1, size(s)
+        if (.not. s(j)) cycle
+        h(1) = h(1) + 1
+        h(2) = h(2) + j
+        h(3) = mod(h(3) + mod(int(j, i8) * int(j, i8), prime), prime)
+      end do
+    end function set_hash
+
+    subroutine remember(s)
+      logical, intent(in) :: s(:)
+      nhist = min(nhist + 1, history_len)
+      hist(:, 1 + mod(it - 1, history_len)) = set_hash(s)
+    end subroutine remember
+
+    logical function seen(s)
+      logical, intent(in) :: s(:)
+      integer(i8) :: h(3)
+      integer :: j
+      h = set_hash(s)
+      seen = .false.
+      do j = 1, nhist
+        if (all(hist(:, j) == h)) seen = .true.
+      end do
+    end function seen
+
+    !> Projected SOR from the current feasible iterate (cycle or iteration limit).
+    subroutine fall_back()
+      type(psor_settings_t) :: ps
+      type(psor_result_t) :: pr
+      res%fallback = .true.
+      ps%omega = 1.0_dp
+      ps%tol = settings%fallback_tol
+      ps%max_iter = settings%fallback_max_iter
+      call psor_solve(a, f, kind, bnd, x, ps, pr, st)
+      res%converged = pr%converged
+      if (is_ok(st)) call set_warning(st, DS_WARN_NOT_CONVERGED, 'active set: ' // &
+        trim(merge('cycle detected     ', 'iteration limit hit', cycled)) // ' after ' // itoa(res%iterations) // &
+        ' iterations; projected SOR fallback, ' // itoa(pr%iterations) // ' sweeps, ' // &
+        trim(merge('converged    ', 'not converged', pr%converged)))
+    end subroutine fall_back
   end subroutine active_set_solve
+
+  !> Wall-clock seconds from an arbitrary origin.
+  real(dp) function wall_seconds()
+    integer(i8) :: c, r
+    call system_clock(c, r)
+    wall_seconds = real(c, dp) / real(r, dp)
+  end function wall_seconds
+
+  !> ar = M(held): the values of a with identity rows and columns for the held unknowns.
+  pure subroutine reduced_values(a, held, ar)
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: held(:)
+    type(csr_t), intent(inout) :: ar
+    integer :: i, p
+    do i = 1, a%n
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (held(i) .or. held(a%col(p))) then
+          ar%val(p) = 0.0_dp
+        else
+          ar%val(p) = a%val(p)
+        end if
+      end do
+      if (held(i)) ar%val(a%diag(i)) = 1.0_dp
+    end do
+  end subroutine reduced_values
+
+  !> x = M(held)^{-1} b by bordering on the kept factor of M(w%fixed) (see the module
+  !> header); D = the unknowns whose held status differs.
+  subroutine bordered_solve(a, w, held, b, x, st)
+    type(csr_t), intent(in) :: a
+    type(active_set_workspace_t), intent(in) :: w
+    logical, intent(in) :: held(:)
+    real(dp), intent(in) :: b(:)
+    real(dp), intent(out) :: x(:)
+    type(status_t), intent(out) :: st
+    integer, allocatable :: d(:), ipiv(:)
+    real(dp), allocatable :: z(:,:), c1(:,:), bmat(:,:), g(:,:), s(:,:), rhs(:,:), xd(:)
+    integer :: n, k, j, p, i, info
+    logical, allocatable :: in_d(:)
+    external :: dgesv
+    n = size(b)
+    d = pack([(i, i=1, n)], w%fixed .neqv. held)
+    k = size(d)
+    allocate (in_d(n), source=.false.)
+    in_d(d) = .true.
+    ! Z = M1^{-1} E_D and the capacitance C1 = Z(D, :)
+    allocate (rhs(n, k), z(n, k), c1(k, k))
+    rhs = 0.0_dp
+    do j = 1, k
+      rhs(d(j), j) = 1.0_dp
+    end do
+    call cholesky_solve(w%chol, rhs, z, st)
+    if (st%code /= 0) return
+    c1 = z(d, :)
+    ! B = M(held)(R, D), and the right-hand sides [B, b_R] for A_RR^{-1}
+    allocate (bmat(n, k + 1), g(n, k + 1))
+    bmat = 0.0_dp
+    do j = 1, k
+      if (held(d(j))) cycle                    ! a held unknown's column is e_j: no coupling
+      do p = a%rowptr(d(j)), a%rowptr(d(j) + 1) - 1
+        i = a%col(p)
+        if (in_d(i) .or. held(i)) cycle
+        bmat(i, j) = a%val(p)                    ! a symmetric: a(i, d_j) = a(d_j, i)
+      end do
+    end do
+    bmat(:, k + 1) = merge(0.0_dp, b, in_d)
+    call arr_solve(bmat, g)
+    if (st%code /= 0) return
+    ! S = M(held)_DD - B^T A_RR^{-1} B;  x_D = S^{-1} (b_D - B^T A_RR^{-1} b_R)
+    allocate (s(k, k), xd(k), ipiv(k))
+    do j = 1, k
+      do i = 1, k
+        s(i, j) = m_dd(d(i), d(j)) - dot_product(bmat(:, i), g(:, j))
+      end do
+      xd(j) = b(d(j)) - dot_product(bmat(:, j), g(:, k + 1))
+    end do
+    call dgesv(k, 1, s, k, ipiv, xd, k, info)
+    if (info /= 0) then
+      call set_error(st, DS_ERR_LAPACK, 'active set: bordered system singular (dgesv info = ' // itoa(info) // ')')
+      return
+    end if
+    ! x_R = A_RR^{-1} b_R - A_RR^{-1} B x_D
+    x = g(:, k + 1) - matmul(g(:, 1:k), xd)
+    x(d) = xd
+
+  contains
+
+    !> Columns of A_RR^{-1} applied to the columns of rhs2 (zero on D): y - Z C1^{-1} y(D).
+    subroutine arr_solve(rhs2, out)
+      real(dp), intent(in) :: rhs2(:,:)
+      real(dp), intent(out) :: out(:,:)
+      real(dp), allocatable :: yd(:,:), c(:,:)
+      integer, allocatable :: piv(:)
+      integer :: inf
+      call cholesky_solve(w%chol, rhs2, out, st)
+      if (st%code /= 0) return
+      yd = out(d, :)
+      c = c1
+      allocate (piv(k))
+      call dgesv(k, size(rhs2, 2), c, k, piv, yd, k, inf)
+      if (inf /= 0) then
+        call set_error(st, DS_ERR_LAPACK, 'active set: capacitance matrix singular (dgesv info = ' // itoa(inf) // ')')
+        return
+      end if
+      out = out - matmul(z, yd)
+    end subroutine arr_solve
+
+    !> The matrix entry a(i, j) (zero outside the pattern).
+    real(dp) function a_value(i, j)
+      integer, intent(in) :: i, j
+      integer :: q
+      a_value = 0.0_dp
+      do q = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (a%col(q) == j) a_value = a%val(q)
+      end do
+    end function a_value
+
+    !> Entry (i, j) of M(held) for i, j in D.
+    real(dp) function m_dd(i, j)
+      integer, intent(in) :: i, j
+      if (held(i) .or. held(j)) then
+        m_dd = merge(1.0_dp, 0.0_dp, i == j)
+      else
+        m_dd = a_value(i, j)
+      end if
+    end function m_dd
+  end subroutine bordered_solve
 end module dualsig_solver_active_set

@@ -23,6 +23,7 @@
 !>     call cholesky_refactor(a, chol, st)            ! new values, same pattern
 !>     call cholesky_free(chol)
 module dualsig_sparse_direct
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: iso_c_binding, only: c_ptr, c_null_ptr, c_associated, c_int, c_long, c_double
   use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
@@ -133,6 +134,12 @@ contains
       return
     end if
     if (.not. pattern_ok(a, st)) return
+    if (.not. all(ieee_is_finite(a%val))) then
+      ! checked here: optimised BLAS (OpenBLAS) do not flag a NaN pivot as reference LAPACK does
+      call set_error(st, DS_ERR_NUMERIC, 'cholesky: the matrix has a non-finite entry (NaN or Inf): ' // &
+                     'not positive definite')
+      return
+    end if
 
     ! 0-based copies, handed over once: the C handle keeps its own
     colptr = int(a%rowptr - 1, c_int)
@@ -175,6 +182,14 @@ contains
     end if
     if (pattern_signature(a) /= chol%pattern_sig) then
       call set_error(st, DS_ERR_INPUT, 'cholesky_refactor: the sparsity pattern differs from the factored one')
+      return
+    end if
+    if (.not. all(ieee_is_finite(a%val))) then
+      ! refactorise a zero matrix instead: the factor becomes invalid (a failed refactor),
+      ! whatever the BLAS does with NaN pivots
+      code = shim_refactor(chol%handle, spread(0.0_dp, 1, size(a%val)))
+      call set_error(st, DS_ERR_NUMERIC, 'cholesky_refactor: the matrix has a non-finite entry (NaN or Inf): ' // &
+                     'not positive definite')
       return
     end if
     code = shim_refactor(chol%handle, a%val)

@@ -1,0 +1,674 @@
+#!/usr/bin/env python3
+"""petsc_peers.py -- solve dualsig's exported bound-constrained QP with PETSc solvers.
+
+A peer comparison on the *same* discrete problem.  dualsig writes its primal QP with
+``write_qp_matrix_market`` (src/dualsig_io_matrix_market.f90); for a base name B the files
+are
+
+    B_A.mtx     coordinate real general (symmetric, both triangles stored)
+    B_F.mtx     array real (n x 1): right-hand side F
+    B_kind.mtx  array integer (n x 1): 0 free, 1 lower bound x >= bnd, 2 fixed x = bnd
+    B_bnd.mtx   array real (n x 1): bound value (lower bound or fixed value)
+    B_x.mtx     array real (n x 1): dualsig's solution
+
+and the QP is   min 1/2 x^T A x - F^T x   subject to the bounds.
+
+Usage
+-----
+    python3 bench/petsc_peers.py BASE [BASE ...] [--tol 1e-10] [--time-limit 400]
+                                 [--csv out/bench_peers.csv] [--solvers a,b,...]
+                                 [--petsc-options "-tron_ksp_rtol 1e-6 ..."]
+
+    BASE            base name of an export, e.g. /tmp/qp/p2_contact_n64
+    --tol           KKT tolerance (the same relative natural residual dualsig uses), 1e-10
+    --time-limit    wall-clock limit in seconds per solver run (solve phase), 400
+    --csv           CSV file the rows are appended to (header written if the file is new),
+                    default out/bench_peers.csv; --csv '' writes none
+    --solvers       comma-separated subset of the solver names below (default: all)
+    --petsc-options extra PETSc options, inserted after the defaults below so they override
+                    them; use the solver's prefix, e.g. "-tron_pc_type gamg -vigamg_ksp_rtol 1e-4"
+    --list          print the solvers and their PETSc options and exit
+
+If petsc4py cannot be imported the script prints one line
+"petsc_peers: PETSc (python3-petsc4py) not installed; skipped" and exits with status 0.
+
+PETSc set-up
+------------
+Debian's petsc4py (package python3-petsc4py, PETSc 3.18) lives under
+$PETSC_DIR/lib/python3/dist-packages; without the petsc-dev package there is no /usr/lib/petsc
+link, so the script sets PETSC_DIR=/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real itself
+when PETSC_DIR is unset and that directory exists.  The package is built for Debian's own
+interpreter: when the running python3 (e.g. a pyenv one) cannot import numpy/petsc4py, the
+script re-executes itself once with /usr/bin/python3.
+
+The problem handed to PETSc
+---------------------------
+Fixed unknowns (kind 2) are eliminated: the reduced QP on the m = n - #fixed remaining
+unknowns is   min 1/2 y^T A_rr y - (F_r - A_rf bnd_f)^T y,  y_i >= bnd_i for kind 1,
+free (PETSC_NINFINITY / PETSC_INFINITY) for kind 0.  This is the cleanest robust choice:
+A_rr is SPD (A itself is singular or not SPD on the fixed rows only through the way
+they were assembled, and equal bounds l = u are handled very differently by TAO's
+interior-point, trust-region and quasi-Newton codes and by SNES VI), and every solver sees
+exactly the same well-posed problem.  The full x is rebuilt with x_f = bnd_f.
+
+Solvers (name: method, default PETSc options; each has its own options prefix)
+------------------------------------------------------------------------------
+    tao-bqpip     TAO bqpip (Mehrotra predictor-corrector interior point for box QPs),
+                  prefix bqpip_.  Its KSP solves (A_rr + D_k) with D_k the barrier diagonal,
+                  which changes every iteration; default a sparse Cholesky
+                  (preonly + cholesky, CHOLMOD when PETSc has SuiteSparse, else MUMPS, else
+                  PETSc's own), since bqpip's own inner tolerance min(mu/10, 1e-3) is loose and
+                  the matrices become very ill-conditioned near the solution.
+    tao-tron      TAO tron (trust-region Newton, gradient projection + Steihaug CG on the free
+                  variables), prefix tron_.  KSP stcg (tron needs a trust-region CG) with
+                  PC icc (ICC(0) of the free-variable submatrix, rebuilt every outer
+                  iteration; cheaper than gamg here), ksp_rtol 1e-6.
+    tao-blmvm     TAO blmvm (bound-constrained limited-memory variable metric, gradient-only;
+                  More-Thuente line search), prefix blmvm_.  Expected to be slow: the
+                  condition number of A grows like h^-2.
+    tao-gpcg      TAO gpcg (gradient projection + CG for bound-constrained QPs, More-Toraldo),
+                  prefix gpcg_.  KSP cg + icc on the free-variable submatrix.
+    snes-vi-chol  SNES vinewtonrsls (reduced-space active-set Newton) on the variational
+                  inequality  0 <= x - l  _|_  A x - F >= 0 (residual A x - F, Jacobian A,
+                  bounds via SNESVISetVariableBounds), prefix vichol_; KSP preonly + cholesky
+                  (CHOLMOD when available, else MUMPS / PETSc), line search basic (the problem
+                  is linear on each active set, the full Newton step is exact).
+    snes-vi-gamg  the same with KSP cg + gamg, ksp_rtol 1e-8, prefix vigamg_.
+
+The convergence test (identical for all solvers)
+------------------------------------------------
+The script installs its own convergence test in every TAO/SNES object (the solvers' own
+tolerances are disabled) and stops as soon as the relative KKT (natural) residual of the
+current iterate is <= --tol.  With g = A x - F (full vectors, x_f = bnd_f):
+
+    r_i = g_i                               for free unknowns       (kind 0)
+    r_i = min(g_i, A_ii (x_i - bnd_i))      for lower-bounded ones  (kind 1)
+    kkt = ||r||_2 / ||F restricted to the unknowns that are not fixed||_2
+
+(absolute ||r||_2 when that norm of F is zero), exactly dualsig's ``kkt_residual``
+(src/dualsig_solver_psor.f90).  After the solve it is recomputed independently with numpy
+from the original, unreduced A.  For interior-point iterates (x strictly feasible) the same
+formula applies.
+
+Time limit and hangs: each solver runs in a forked child process.  The convergence test
+also checks the wall clock and stops the solver (status "time limit") after --time-limit
+seconds of solve time; if the child does not answer within 1.25 * time-limit + 30 s (e.g. a
+single factorisation or linear solve that never returns) it is killed and reported as
+"killed (hard timeout)".  Iteration limits (TAO/SNES max_it) are set high so that normally
+the time limit or the KKT test ends the run; reaching them is reported as "max_it".
+
+Reported per solver
+-------------------
+    setup_s         creating the PETSc Mat/Vecs from the CSR arrays and the solver object,
+                    options, setUp() (reading the files and eliminating fixed unknowns is
+                    common to all and printed once per BASE as "read")
+    solve_s         wall time of TAO/SNES solve() only (includes factorisations, PC set-ups
+                    and the cost of the KKT test: one extra mat-vec per iteration)
+    iterations      TAO / SNES (outer) iterations
+    ksp_iterations  total KSP iterations (TAO: counted with a KSP monitor; SNES:
+                    SNESGetLinearSolveIterations; a preonly direct solve counts 1 per solve)
+    kkt             relative KKT residual defined above, of the returned x
+    rel_diff        max |x - x_dualsig| / max |x_dualsig|
+    status          converged (kkt <= tol) | time limit | max_it | not converged (<PETSc
+                    reason>) | killed (hard timeout) | error: ...
+
+CSV columns: base, n, solver, setup_s, solve_s, iterations, ksp_iterations, kkt, rel_diff,
+status.
+"""
+
+import argparse
+import csv
+import glob
+import importlib.util
+import multiprocessing as mp
+import os
+import sys
+import time
+import traceback
+
+DEBIAN_PYTHON = '/usr/bin/python3'
+PETSC_DIR_DEFAULT = '/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real'
+SKIP_LINE = 'petsc_peers: PETSc (python3-petsc4py) not installed; skipped'
+REEXEC_FLAG = 'DUALSIG_PETSC_PEERS_REEXEC'
+
+# name: (kind, PETSc type, options prefix, default options (without prefix), max_it)
+SOLVERS = {
+    'tao-bqpip': ('tao', 'bqpip', 'bqpip_',
+                  '-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type {direct}', 500),
+    'tao-tron': ('tao', 'tron', 'tron_',
+                 '-ksp_type stcg -pc_type icc -ksp_rtol 1e-6', 5000),
+    'tao-blmvm': ('tao', 'blmvm', 'blmvm_', '', 1000000),
+    'tao-gpcg': ('tao', 'gpcg', 'gpcg_', '-ksp_type cg -pc_type icc', 10000),
+    'snes-vi-chol': ('snes', 'vinewtonrsls', 'vichol_',
+                     '-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type {direct}'
+                     ' -snes_linesearch_type basic', 1000),
+    'snes-vi-gamg': ('snes', 'vinewtonrsls', 'vigamg_',
+                     '-ksp_type cg -pc_type gamg -ksp_rtol 1e-8 -snes_linesearch_type basic',
+                     1000),
+}
+
+
+# --------------------------------------------------------------------------- environment
+
+def _petsc_dir_guess():
+    if os.path.isdir(PETSC_DIR_DEFAULT):
+        return PETSC_DIR_DEFAULT
+    cands = sorted(glob.glob('/usr/lib/petscdir/petsc*/*-real'))
+    return cands[-1] if cands else None
+
+
+def ensure_petsc4py():
+    """Make Debian's petsc4py importable; re-exec with /usr/bin/python3 if needed.
+
+    Returns True when numpy and petsc4py can be found (PETSc itself is only initialised in
+    the solver child processes)."""
+    if not os.environ.get('PETSC_DIR') and not os.path.isdir('/usr/lib/petsc'):
+        guess = _petsc_dir_guess()
+        if guess:
+            os.environ['PETSC_DIR'] = guess
+    pdir = os.environ.get('PETSC_DIR') or '/usr/lib/petsc'
+    site = os.path.join(pdir, 'lib', 'python3', 'dist-packages')
+    if os.path.isdir(site) and site not in sys.path:
+        sys.path.append(site)
+    ok = (importlib.util.find_spec('numpy') is not None
+          and importlib.util.find_spec('petsc4py') is not None)
+    if (not ok and not os.environ.get(REEXEC_FLAG) and os.access(DEBIAN_PYTHON, os.X_OK)
+            and os.path.realpath(sys.executable) != os.path.realpath(DEBIAN_PYTHON)):
+        os.environ[REEXEC_FLAG] = '1'
+        sys.stdout.flush()
+        os.execv(DEBIAN_PYTHON, [DEBIAN_PYTHON, os.path.abspath(__file__)] + sys.argv[1:])
+    return ok
+
+
+# --------------------------------------------------------------------------- Matrix Market
+
+def _mm_header(path):
+    """Banner tokens, size line and number of lines before the data."""
+    with open(path, 'rb') as f:
+        first = f.readline()
+        if not first.startswith(b'%%MatrixMarket'):
+            raise ValueError('%s: not a Matrix Market file' % path)
+        banner = first.decode('ascii', 'replace').lower().split()
+        nlines = 1
+        while True:
+            line = f.readline()
+            if not line:
+                raise ValueError('%s: no size line' % path)
+            nlines += 1
+            s = line.strip()
+            if s and not s.startswith(b'%'):
+                return banner, [int(t) for t in s.split()], nlines
+
+
+def read_mm_array(path, dtype=float):
+    """Dense n x 1 Matrix Market array -> 1-D numpy array."""
+    import numpy as np
+    banner, size, skip = _mm_header(path)
+    if 'array' not in banner or len(size) != 2 or size[1] != 1:
+        raise ValueError('%s: expected an n x 1 "array" file' % path)
+    v = np.loadtxt(path, dtype=float, comments='%', skiprows=skip, ndmin=1)
+    if v.size != size[0]:
+        raise ValueError('%s: %d values, header says %d' % (path, v.size, size[0]))
+    return v.astype(dtype) if dtype is not float else v
+
+
+def read_mm_coo(path):
+    """Sparse coordinate Matrix Market file -> (n, rows, cols, vals), 0-based int64.
+    `symmetric` storage is expanded to both triangles."""
+    import numpy as np
+    banner, size, skip = _mm_header(path)
+    if 'coordinate' not in banner or len(size) != 3:
+        raise ValueError('%s: expected a "coordinate" file' % path)
+    nr, nc, nnz = size
+    if nr != nc:
+        raise ValueError('%s: matrix is not square' % path)
+    d = np.loadtxt(path, dtype=float, comments='%', skiprows=skip, ndmin=2)
+    if d.shape != (nnz, 3):
+        raise ValueError('%s: %s entries, header says %d' % (path, d.shape, nnz))
+    rows = d[:, 0].astype(np.int64) - 1
+    cols = d[:, 1].astype(np.int64) - 1
+    vals = np.ascontiguousarray(d[:, 2])
+    if 'symmetric' in banner:
+        off = rows != cols
+        rows, cols, vals = (np.concatenate([rows, cols[off]]), np.concatenate([cols, rows[off]]),
+                            np.concatenate([vals, vals[off]]))
+    return nr, rows, cols, vals
+
+
+# --------------------------------------------------------------------------- problem
+
+class Problem:
+    """The QP of one BASE, plus its reduction to the non-fixed unknowns (numpy only)."""
+
+    def __init__(self, base):
+        import numpy as np
+        t0 = time.perf_counter()
+        self.base = base
+        n, rows, cols, vals = read_mm_coo(base + '_A.mtx')
+        self.n = n
+        self.F = read_mm_array(base + '_F.mtx')
+        self.kind = read_mm_array(base + '_kind.mtx').astype(np.int64)
+        self.bnd = read_mm_array(base + '_bnd.mtx')
+        self.xref = read_mm_array(base + '_x.mtx')
+        for name, v in (('F', self.F), ('kind', self.kind), ('bnd', self.bnd), ('x', self.xref)):
+            if v.size != n:
+                raise ValueError('%s_%s.mtx: size %d, A has %d' % (base, name, v.size, n))
+        if np.any((self.kind < 0) | (self.kind > 2)):
+            raise ValueError('%s_kind.mtx: kinds must be 0, 1 or 2' % base)
+        self.rows, self.cols, self.vals = rows, cols, vals
+        self.t_read = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        fixed = self.kind == 2
+        keep = ~fixed
+        self.keep_idx = np.flatnonzero(keep)
+        m = self.keep_idx.size
+        self.m = m
+        newidx = np.full(n, -1, dtype=np.int64)
+        newidx[self.keep_idx] = np.arange(m, dtype=np.int64)
+        # x with the fixed values in place, zeros elsewhere: F_r - A_rf bnd_f
+        xfix = np.where(fixed, self.bnd, 0.0)
+        sel = keep[rows]
+        Ab = np.bincount(rows[sel], weights=vals[sel] * xfix[cols[sel]], minlength=n)
+        self.b = (self.F - Ab)[self.keep_idx]
+        sel &= keep[cols]
+        ri, rj, rv = newidx[rows[sel]], newidx[cols[sel]], vals[sel]
+        key = ri * m + rj
+        if key.size > 1 and np.any(key[1:] < key[:-1]):
+            order = np.argsort(key, kind='stable')
+            ri, rj, rv = ri[order], rj[order], rv[order]
+            key = key[order]
+        if key.size > 1 and np.any(key[1:] == key[:-1]):       # duplicates: sum them
+            uniq, start = np.unique(key, return_index=True)
+            rv = np.add.reduceat(rv, start)
+            ri, rj = uniq // m, uniq % m
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(ri, minlength=m))])
+        self.indices = rj
+        self.data = rv
+        diag = np.zeros(m)
+        dsel = ri == rj
+        diag[ri[dsel]] = rv[dsel]
+        self.diag = diag
+        kr = self.kind[self.keep_idx]
+        self.bidx = np.flatnonzero(kr == 1)         # bounded unknowns, reduced numbering
+        self.lb = self.bnd[self.keep_idx][self.bidx]
+        self.diag_b = diag[self.bidx]
+        fk = self.F[keep]
+        den = float(np.sqrt(fk @ fk))
+        self.den = den if den > 0.0 else 1.0
+        self.nnz_r = rv.size
+        self.t_reduce = time.perf_counter() - t0
+        self.ref_kkt = self.kkt_full(self.xref)
+        self.ref_scale = float(np.max(np.abs(self.xref))) if n else 0.0
+
+    def kkt_reduced(self, y, Ay):
+        """Relative KKT residual from reduced y and A_rr y (numpy arrays)."""
+        import numpy as np
+        r = Ay - self.b
+        if self.bidx.size:
+            r[self.bidx] = np.minimum(r[self.bidx], self.diag_b * (y[self.bidx] - self.lb))
+        return float(np.sqrt(r @ r)) / self.den
+
+    def full_x(self, y):
+        import numpy as np
+        x = np.where(self.kind == 2, self.bnd, 0.0)
+        x[self.keep_idx] = y
+        return x
+
+    def kkt_full(self, x):
+        """dualsig's kkt_residual on the original (unreduced) data."""
+        import numpy as np
+        g = np.bincount(self.rows, weights=self.vals * x[self.cols], minlength=self.n) - self.F
+        r = g.copy()
+        low = self.kind == 1
+        r[low] = np.minimum(g[low], self.diag_full()[low] * (x[low] - self.bnd[low]))
+        r = r[self.kind != 2]
+        return float(np.sqrt(r @ r)) / self.den
+
+    def diag_full(self):
+        import numpy as np
+        d = np.zeros(self.n)
+        s = self.rows == self.cols
+        np.add.at(d, self.rows[s], self.vals[s])
+        return d
+
+    def rel_diff(self, x):
+        import numpy as np
+        dmax = float(np.max(np.abs(x - self.xref))) if self.n else 0.0
+        return dmax / self.ref_scale if self.ref_scale > 0 else dmax
+
+
+# --------------------------------------------------------------------------- options
+
+def split_options(s):
+    """'-a 1 -b -c x' -> [('a','1'), ('b', None), ('c','x')] (keys without the dash)."""
+    toks = s.split()
+    out = []
+    i = 0
+    while i < len(toks):
+        t = toks[i]
+        if not (t.startswith('-') and len(t) > 1 and not _is_number(t)):
+            raise ValueError('bad PETSc option token %r in %r' % (t, s))
+        val = None
+        if i + 1 < len(toks) and not (toks[i + 1].startswith('-') and not _is_number(toks[i + 1])):
+            val = toks[i + 1]
+            i += 1
+        out.append((t[1:], val))
+        i += 1
+    return out
+
+
+def _is_number(t):
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return False
+
+
+def direct_solver_type(PETSc):
+    if PETSc.Sys.hasExternalPackage('suitesparse') or PETSc.Sys.hasExternalPackage('cholmod'):
+        return 'cholmod'
+    if PETSc.Sys.hasExternalPackage('mumps'):
+        return 'mumps'
+    return 'petsc'
+
+
+def default_options(name, direct='cholmod'):
+    kind, typ, prefix, opts, maxit = SOLVERS[name]
+    return ' '.join('-' + prefix + k + ('' if v is None else ' ' + v)
+                    for k, v in split_options(opts.format(direct=direct)))
+
+
+# --------------------------------------------------------------------------- child
+
+def run_solver(name, prob, tol, time_limit, user_opts, conn):
+    """Runs in a forked child: set up and solve with one PETSc solver, send a result dict."""
+    res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
+           'iterations': -1, 'ksp_iterations': -1, 'kkt': float('nan'),
+           'rel_diff': float('nan'), 'status': 'error'}
+    try:
+        import numpy as np
+        import petsc4py
+        petsc4py.init([sys.argv[0]])
+        from petsc4py import PETSc
+
+        kind, typ, prefix, _, maxit = SOLVERS[name]
+        direct = direct_solver_type(PETSc)
+        res['options'] = default_options(name, direct)
+        opts = PETSc.Options()
+        for k, v in split_options(res['options']):
+            opts.setValue(k, '' if v is None else v)
+        if user_opts:
+            opts.insertString(user_opts)
+
+        t0 = time.perf_counter()
+        m = prob.m
+        it = PETSc.IntType
+        A = PETSc.Mat().createAIJ(size=(m, m), csr=(prob.indptr.astype(it),
+                                                    prob.indices.astype(it), prob.data),
+                                  comm=PETSc.COMM_SELF)
+        A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        A.setOption(PETSc.Mat.Option.SPD, True)
+        A.assemble()
+        b = PETSc.Vec().createWithArray(prob.b.copy(), comm=PETSc.COMM_SELF)
+        xl = A.createVecRight()
+        xu = A.createVecRight()
+        xl.set(PETSc.NINFINITY)
+        xu.set(PETSc.INFINITY)
+        xla = xl.getArray()
+        xla[prob.bidx] = prob.lb
+        xl.setArray(xla)
+        x = A.createVecRight()
+        x0 = np.zeros(m)
+        x0[prob.bidx] = np.maximum(0.0, prob.lb)
+        x.setArray(x0)
+        work = A.createVecRight()
+
+        state = {'t_solve0': None, 'kkt': float('inf'), 'timeout': False, 'maxit': False,
+                 'ksp_its': 0}
+
+        def kkt_of(xv):
+            A.mult(xv, work)
+            return prob.kkt_reduced(xv.getArray(readonly=True), work.getArray(readonly=True))
+
+        def out_of_time():
+            t = state['t_solve0']
+            return t is not None and time.perf_counter() - t > time_limit
+
+        def ksp_monitor(ksp, its, rnorm):
+            if its > 0:
+                state['ksp_its'] += 1
+
+        if kind == 'tao':
+            solver = PETSc.TAO().create(comm=PETSc.COMM_SELF)
+            solver.setOptionsPrefix(prefix)
+            solver.setType(typ)
+
+            def objgrad(tao, xv, g):
+                A.mult(xv, g)
+                f = 0.5 * xv.dot(g) - xv.dot(b)
+                g.axpy(-1.0, b)
+                return f
+
+            def hessian(tao, xv, H, P):
+                pass            # constant Hessian, assembled once
+
+            def converged(tao):
+                its = tao.getIterationNumber()
+                state['kkt'] = kkt_of(tao.getSolution())
+                if state['kkt'] <= tol:
+                    tao.setConvergedReason(PETSc.TAO.Reason.CONVERGED_USER)
+                elif out_of_time():
+                    state['timeout'] = True
+                    tao.setConvergedReason(PETSc.TAO.Reason.DIVERGED_USER)
+                elif its >= tao.getMaximumIterations():
+                    state['maxit'] = True
+                    tao.setConvergedReason(PETSc.TAO.Reason.DIVERGED_MAXITS)
+                else:
+                    tao.setConvergedReason(PETSc.TAO.Reason.CONTINUE_ITERATING)
+
+            g = A.createVecRight()
+            solver.setObjectiveGradient(objgrad, g)
+            if typ in ('bqpip', 'tron', 'gpcg', 'bnls', 'bntr', 'bntl'):
+                # bqpip shifts the Hessian's diagonal in place: give it its own copy
+                H = A.duplicate(copy=True) if typ == 'bqpip' else A
+                solver.setHessian(hessian, H, H)
+            solver.setVariableBounds(xl, xu)
+            solver.setSolution(x)
+            solver.setTolerances(gatol=0.0, grtol=0.0, gttol=0.0)
+            solver.setMaximumIterations(maxit)
+            solver.setMaximumFunctionEvaluations(10 ** 9)
+            solver.setFromOptions()
+            solver.setConvergenceTest(converged)
+            ksp = solver.getKSP()
+            if ksp is not None and not ksp.handle:
+                ksp = None      # gradient-only methods have no KSP (a NULL handle)
+            if ksp is not None:
+                ksp.setMonitor(ksp_monitor)
+            solver.setUp()
+            res['setup_s'] = time.perf_counter() - t0
+            state['t_solve0'] = time.perf_counter()
+            solver.solve(x)
+            res['solve_s'] = time.perf_counter() - state['t_solve0']
+            res['iterations'] = solver.getIterationNumber()
+            res['ksp_iterations'] = state['ksp_its'] if ksp is not None else 0
+            reason = solver.getConvergedReason()
+            reason_name = _reason_name(PETSc.TAO.Reason, reason)
+            xsol = solver.getSolution()
+        else:
+            solver = PETSc.SNES().create(comm=PETSc.COMM_SELF)
+            solver.setOptionsPrefix(prefix)
+            solver.setType(typ)
+
+            def residual(snes, xv, f):
+                A.mult(xv, f)
+                f.axpy(-1.0, b)
+
+            def jacobian(snes, xv, J, P):
+                pass            # constant Jacobian
+
+            def converged(snes, its, norms):
+                state['kkt'] = kkt_of(snes.getSolution())
+                if state['kkt'] <= tol:
+                    return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+                if out_of_time():
+                    state['timeout'] = True
+                    return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+                if its >= snes.getTolerances()[3]:
+                    state['maxit'] = True
+                    return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+                return PETSc.SNES.ConvergedReason.ITERATING
+
+            f = A.createVecRight()
+            solver.setFunction(residual, f)
+            solver.setJacobian(jacobian, A, A)
+            solver.setVariableBounds(xl, xu)
+            solver.setTolerances(rtol=0.0, atol=0.0, stol=0.0, max_it=maxit)
+            solver.setMaxFunctionEvaluations(10 ** 9)
+            solver.setFromOptions()
+            solver.setConvergenceTest(converged)
+            solver.setSolution(x)
+            solver.setUp()
+            res['setup_s'] = time.perf_counter() - t0
+            state['t_solve0'] = time.perf_counter()
+            solver.solve(None, x)
+            res['solve_s'] = time.perf_counter() - state['t_solve0']
+            res['iterations'] = solver.getIterationNumber()
+            res['ksp_iterations'] = solver.getLinearSolveIterations()
+            reason = solver.getConvergedReason()
+            reason_name = _reason_name(PETSc.SNES.ConvergedReason, reason)
+            xsol = solver.getSolution()
+
+        y = xsol.getArray(readonly=True).copy()
+        xfull = prob.full_x(y)
+        res['kkt'] = prob.kkt_full(xfull)
+        res['rel_diff'] = prob.rel_diff(xfull)
+        if res['kkt'] <= tol:
+            res['status'] = 'converged'
+        elif state['timeout']:
+            res['status'] = 'time limit'
+        elif state['maxit']:
+            res['status'] = 'max_it'
+        else:
+            res['status'] = 'not converged (%s)' % reason_name
+    except Exception as e:                        # report, never hang the parent
+        res['status'] = 'error: %s' % (str(e).strip().splitlines() or [type(e).__name__])[0]
+        res['traceback'] = traceback.format_exc()
+    try:
+        conn.send(res)
+    finally:
+        conn.close()
+
+
+def _reason_name(enum, value):
+    for k in dir(enum):
+        if not k.startswith('_') and getattr(enum, k) == value:
+            return k
+    return str(value)
+
+
+# --------------------------------------------------------------------------- parent
+
+def run_one(name, prob, args):
+    """Run one solver in a forked child with a hard timeout."""
+    ctx = mp.get_context('fork')
+    rd, wr = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=run_solver,
+                    args=(name, prob, args.tol, args.time_limit, args.petsc_options, wr))
+    p.start()
+    wr.close()
+    hard = 1.25 * args.time_limit + 30.0
+    res = None
+    if rd.poll(hard):
+        try:
+            res = rd.recv()
+        except EOFError:
+            res = None
+    if res is None:
+        p.join(5)
+        if p.is_alive():
+            p.kill()            # only the child started just above
+            status = 'killed (hard timeout)'
+        else:
+            status = 'error: child exited with code %s' % p.exitcode
+        res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
+               'iterations': -1, 'ksp_iterations': -1, 'kkt': float('nan'),
+               'rel_diff': float('nan'), 'status': status}
+    p.join(10)
+    rd.close()
+    return res
+
+
+def fmt_row(cols, widths):
+    return '  '.join(str(c).rjust(w) if i not in (0,) and i != len(cols) - 1 else str(c).ljust(w)
+                     for i, (c, w) in enumerate(zip(cols, widths)))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument('bases', nargs='*', metavar='BASE')
+    ap.add_argument('--tol', type=float, default=1e-10)
+    ap.add_argument('--time-limit', type=float, default=400.0)
+    ap.add_argument('--csv', default='out/bench_peers.csv')
+    ap.add_argument('--solvers', default=','.join(SOLVERS))
+    ap.add_argument('--petsc-options', default='')
+    ap.add_argument('--list', action='store_true')
+    args = ap.parse_args(argv)
+
+    names = [s.strip() for s in args.solvers.split(',') if s.strip()]
+    bad = [s for s in names if s not in SOLVERS]
+    if bad:
+        ap.error('unknown solver(s) %s; known: %s' % (', '.join(bad), ', '.join(SOLVERS)))
+    if args.list:
+        for s in SOLVERS:
+            print('%-13s %-5s %-13s %s' % (s, SOLVERS[s][0], SOLVERS[s][1], default_options(s)))
+        return 0
+    if not args.bases:
+        ap.error('at least one BASE is required')
+
+    if not ensure_petsc4py():
+        print(SKIP_LINE)
+        return 0
+
+    widths = [13, 8, 8, 7, 8, 10, 10, 30]
+    head = ['solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'status']
+    rows_out = []
+    for base in args.bases:
+        prob = Problem(base)
+        print('%s: n = %d (free %d, bounded %d, fixed %d), reduced m = %d, nnz(A_rr) = %d;'
+              ' read %.2f s, reduce %.2f s; dualsig x: kkt = %.3e; tol = %.1e'
+              % (base, prob.n, int((prob.kind == 0).sum()), int((prob.kind == 1).sum()),
+                 int((prob.kind == 2).sum()), prob.m, prob.nnz_r, prob.t_read, prob.t_reduce,
+                 prob.ref_kkt, args.tol), flush=True)
+        print(fmt_row(head, widths), flush=True)
+        for name in names:
+            r = run_one(name, prob, args)
+            print(fmt_row([name, '%.3f' % r['setup_s'], '%.3f' % r['solve_s'], r['iterations'],
+                           r['ksp_iterations'], '%.3e' % r['kkt'], '%.3e' % r['rel_diff'],
+                           r['status']], widths), flush=True)
+            if 'traceback' in r:
+                sys.stderr.write(r['traceback'])
+            rows_out.append([base, prob.n, name, '%.4f' % r['setup_s'], '%.4f' % r['solve_s'],
+                             r['iterations'], r['ksp_iterations'], '%.6e' % r['kkt'],
+                             '%.6e' % r['rel_diff'], r['status']])
+        print(flush=True)
+
+    if args.csv:
+        d = os.path.dirname(args.csv)
+        if d:
+            os.makedirs(d, exist_ok=True)
+        new = not os.path.exists(args.csv) or os.path.getsize(args.csv) == 0
+        with open(args.csv, 'a', newline='') as fh:
+            w = csv.writer(fh)
+            if new:
+                w.writerow(['base', 'n', 'solver', 'setup_s', 'solve_s', 'iterations',
+                            'ksp_iterations', 'kkt', 'rel_diff', 'status'])
+            w.writerows(rows_out)
+        print('petsc_peers: %d row(s) appended to %s' % (len(rows_out), args.csv))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
