@@ -44,6 +44,7 @@ module dualsig_solver_active_set
     integer :: max_iter = 100            !! maximum number of active-set changes
     integer :: ordering = ORDERING_AMD   !! fill-reducing ordering (dualsig_sparse_direct)
     integer :: max_lowrank = 24          !! largest change handled by bordering (0: always refactorise)
+    logical :: lowrank_by_cost = .true.  !! choose bordering by measured cost (.false.: whenever k <= max_lowrank)
     real(dp) :: fallback_tol = 1.0e-10_dp    !! KKT tolerance of the projected-SOR fallback
     integer :: fallback_max_iter = 1000000   !! sweeps of the fallback
   end type active_set_settings_t
@@ -186,6 +187,8 @@ contains
       integer, intent(in) :: k
       if (k > settings%max_lowrank) then
         bordering_pays = .false.
+      else if (.not. settings%lowrank_by_cost) then
+        bordering_pays = .true.
       else if (t_solve < 0.0_dp .or. t_refactor < 0.0_dp) then
         bordering_pays = k <= untimed_lowrank
       else
