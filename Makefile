@@ -33,7 +33,7 @@ endif
 LIBS ?= -lcholmod -lsuitesparseconfig -llapack -lblas
 
 # Debian packages the project needs (build, run and test).
-DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libsuitesparse-dev libmetis-dev python3
+DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libmetis-dev python3
 
 BLD  := build/$(BUILD)
 SRCS := $(sort $(wildcard src/*.f90))

@@ -382,6 +382,52 @@ def default_options(name, direct='cholmod'):
 
 # --------------------------------------------------------------------------- child
 
+class FreshGAMG:
+    """PCPYTHON context: a PCGAMG rebuilt from scratch whenever the PC is set up.
+
+    PETSc 3.18's GAMG cannot be re-set-up after KSPReset when the operator's size changes
+    ("Cannot change local size of Amat after use" from a coarse level): SNES vinewtonrsls and
+    TAO tron call KSPReset and hand the KSP a submatrix of a different size whenever the
+    active set changes.  This wrapper creates a new GAMG for each new operator, which is what
+    those solvers intend; the GAMG options of the solver's prefix still apply."""
+
+    def __init__(self, PETSc, prefix):
+        self.PETSc = PETSc
+        self.prefix = prefix
+        self.inner = None
+
+    def setUp(self, pc):
+        self.reset(pc)
+        A, P = pc.getOperators()
+        inner = self.PETSc.PC().create(comm=pc.getComm())
+        inner.setOptionsPrefix(self.prefix)
+        inner.setOperators(A, P)
+        inner.setType('gamg')
+        inner.setFromOptions()
+        inner.setUp()
+        self.inner = inner
+
+    def apply(self, pc, x, y):
+        self.inner.apply(x, y)
+
+    def reset(self, pc):
+        if self.inner is not None:
+            self.inner.destroy()
+            self.inner = None
+
+
+def wrap_gamg(PETSc, ksp, prefix, opts):
+    """Replace a PCGAMG of a KSP that sees changing operator sizes by FreshGAMG."""
+    pc = ksp.getPC()
+    if pc.getType() != 'gamg':
+        return False
+    if opts.hasName(prefix + 'pc_type'):
+        opts.delValue(prefix + 'pc_type')      # KSPResetFromOptions must not restore gamg
+    pc.setType('python')
+    pc.setPythonContext(FreshGAMG(PETSc, prefix))
+    return True
+
+
 def run_solver(name, prob, tol, time_limit, user_opts, conn):
     """Runs in a forked child: set up and solve with one PETSc solver, send a result dict."""
     res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
@@ -486,6 +532,8 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
                 ksp = None      # gradient-only methods have no KSP (a NULL handle)
             if ksp is not None:
                 ksp.setMonitor(ksp_monitor)
+                if typ in ('tron', 'gpcg'):
+                    res['gamg_wrapped'] = wrap_gamg(PETSc, ksp, prefix, opts)
             solver.setUp()
             res['setup_s'] = time.perf_counter() - t0
             state['t_solve0'] = time.perf_counter()
@@ -528,6 +576,7 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
             solver.setMaxFunctionEvaluations(10 ** 9)
             solver.setFromOptions()
             solver.setConvergenceTest(converged)
+            res['gamg_wrapped'] = wrap_gamg(PETSc, solver.getKSP(), prefix, opts)
             solver.setSolution(x)
             solver.setUp()
             res['setup_s'] = time.perf_counter() - t0

@@ -114,7 +114,7 @@ contains
     type(mesh_quality_t) :: q0
     type(status_t) :: st_solve
     integer, allocatable :: gamma_u(:), gamma_a(:)
-    real(dp), allocatable :: u(:), u_prev(:)
+    real(dp), allocatable :: u(:), u_prev(:), q_prev(:), q_fine(:)
     real(dp) :: h, err_l2, err_h1semi, err_energy, rate, seconds, lmin, lmax
     integer :: level, steps, nflip, nonconverged
     logical :: ok
@@ -207,8 +207,10 @@ contains
       dset%ordering = ORDERING_METIS
     case ('natural')
       dset%ordering = ORDERING_NATURAL
-    case default
+    case ('best')
       dset%ordering = ORDERING_BEST
+    case default
+      dset%ordering = ORDERING_AMD
     end select
     aset%ordering = dset%ordering
     d2set%ordering = dset%ordering
@@ -225,6 +227,13 @@ contains
         if (cfg%nested) then
           allocate (u_prev(finer%nnode))
           call mesh_prolongate_p1(mesh, finer, u, u_prev)
+          if (allocated(q_prev)) then
+            ! the P1 dual field, component by component (interleaved storage)
+            allocate (q_fine(2 * finer%nnode))
+            call mesh_prolongate_p1(mesh, finer, q_prev(1::2), q_fine(1::2))
+            call mesh_prolongate_p1(mesh, finer, q_prev(2::2), q_fine(2::2))
+            call move_alloc(q_fine, q_prev)
+          end if
         end if
         mesh = finer
       end if
@@ -394,11 +403,16 @@ contains
       ! Uzawa tolerance tied to the discretisation: no point in solving far below h^2
       dset%tol = max(cfg%dual_tol, cfg%dual_tol_h2 * (h / mesh_diameter(mesh))**2)
       t0 = wall_seconds()
-      call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual)
+      if (allocated(q_prev) .and. cfg%nested) then
+        call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual, q_prev)
+      else
+        call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual)
+      end if
       t0 = wall_seconds() - t0
       call take_status(st_dual, stop_run)
       if (stop_run) return
       call dual_p1_bounds(mesh, u, q, scene%f, bound_rule, bounds, scene%x_breaks(1:scene%nbreaks))
+      q_prev = q
       call table_set(tab, 'dual_iters', real(dres%iterations, dp))
       call table_set(tab, 'dual_s', t0)
       call table_set(tab, 'est', bounds%est)
@@ -412,8 +426,9 @@ contains
         call set_with_rate('err_lambda3', 'rate_lambda3', err_div)
         if (err_energy > 0.0_dp) call table_set(tab, 'eff', sqrt(bounds%est) / err_energy)
       end if
-      write (unit, '(a,i0,a,i0,a,a,a,i0,a,es9.2,a,i0,a,i0)') '  dual level ', level, ': ', dres%iterations, &
-        ' iterations (', trim(cfg%dual_method), '), nnz(L) = ', dres%nnz_factor, ', residual ', dres%residual, &
+      write (unit, '(a,i0,a,i0,a,a,a,i0,a,i0,a,i0,a,es9.2,a,i0,a,i0)') '  dual level ', level, ': ', &
+        dres%iterations, ' iterations (', dual_method, '), factorisations ', dres%factorisations, &
+        ', bordered ', dres%lowrank_solves, ', nnz(L) = ', dres%nnz_factor, ', residual ', dres%residual, &
         ', constraints ', dres%nconstraints, ', active ', dres%nactive
       if (cfg%dual_method == 'uzawa') write (unit, '(a,es10.3,a,es10.3,a,i0)') '    rho = ', dres%rho, &
         ', lambda_max(B A^-1 B^T) ~ ', dres%lambda_max, ', retries ', dres%retries

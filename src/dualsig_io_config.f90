@@ -63,7 +63,7 @@ module dualsig_io_config
     real(dp) :: dual_tol = 1.0e-10_dp
     real(dp) :: dual_tol_h2 = 1.0e-4_dp
     integer :: dual_max_iter = 20000
-    character(len=16) :: dual_ordering = 'best'
+    character(len=16) :: dual_ordering = 'amd'
   end type run_config_t
 
   type :: group_t

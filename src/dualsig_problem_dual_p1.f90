@@ -28,7 +28,7 @@ module dualsig_problem_dual_p1
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_from_triplets
   use dualsig_quadrature, only: tri_rule_t
-  use dualsig_sparse_direct, only: ORDERING_BEST
+  use dualsig_sparse_direct, only: ORDERING_AMD
   use dualsig_spd_solver, only: cholmod_spd_t
   use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER
   use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve, ROW_INEQUALITY
@@ -47,11 +47,13 @@ module dualsig_problem_dual_p1
     real(dp) :: rho = 0.0_dp                     !! Uzawa step, 0 = automatic
     real(dp) :: tol = 1.0e-10_dp                 !! Uzawa tolerance (relative natural residual)
     integer :: max_iter = 20000                  !! Uzawa iterations / active-set changes
-    integer :: ordering = ORDERING_BEST          !! CHOLMOD ordering
+    integer :: ordering = ORDERING_AMD           !! CHOLMOD ordering
   end type dual_p1_settings_t
 
   type :: dual_p1_result_t
-    integer :: iterations = 0          !! Uzawa iterations or active-set factorisations
+    integer :: iterations = 0          !! Uzawa iterations or active-set iterations
+    integer :: factorisations = 0      !! CHOLMOD (re)factorisations
+    integer :: lowrank_solves = 0      !! active-set iterations done by bordering
     real(dp) :: residual = 0.0_dp      !! Uzawa residual or KKT residual of the active-set solve
     logical :: converged = .false.
     real(dp) :: rho = 0.0_dp           !! Uzawa step used
@@ -72,7 +74,9 @@ contains
   !> nodal values, 2 nnode): q.nu >= 0 at every boundary node with the normals of its sides.
   !> st carries DS_WARN_NOT_CONVERGED when the iteration limit was reached (q is still
   !> feasible and usable in the bounds).
-  subroutine dual_p1_solve(mesh, f, rule, settings, q, res, st)
+  !> q_start (optional, 2 nnode): a start for the active-set solver, e.g. the coarser
+  !> level's field interpolated (its contact set predicts the first active set).
+  subroutine dual_p1_solve(mesh, f, rule, settings, q, res, st, q_start)
     type(mesh_t), intent(in) :: mesh
     procedure(scalar_field) :: f
     type(tri_rule_t), intent(in) :: rule
@@ -80,6 +84,7 @@ contains
     real(dp), allocatable, intent(out) :: q(:)
     type(dual_p1_result_t), intent(out) :: res
     type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: q_start(:)
     real(dp), allocatable :: t(:,:,:), tinv(:,:,:), b(:), y(:), z(:), s(:), zero(:)
     integer, allocatable :: kind(:), row_node(:), row_kind(:)
     type(csr_t) :: a
@@ -99,6 +104,7 @@ contains
       call assemble_dual_p1(mesh, f, rule, a, b)
       call chol%factor(a, st, settings%ordering)
       if (st%code /= 0) return
+      res%factorisations = 1
       res%nnz_factor = chol%chol%nnz_factor
       res%ordering = chol%chol%ordering
       call dual_p1_constraint_rows(mesh, bmat, row_node)
@@ -123,11 +129,17 @@ contains
       call assemble_dual_p1(mesh, f, rule, a, b, t)
       allocate (s(2 * mesh%nnode), source=0.0_dp)
       allocate (zero(2 * mesh%nnode), source=0.0_dp)
+      if (present(q_start)) then
+        call dual_p1_nodewise(tinv, q_start, s)
+        where (kind == BOUND_LOWER) s = max(s, 0.0_dp)
+      end if
       aset%max_iter = settings%max_iter
       aset%ordering = settings%ordering
       call active_set_solve(a, b, kind, zero, s, aset, ares, st)
       if (.not. is_ok(st)) return
       res%iterations = ares%iterations
+      res%factorisations = ares%factorisations
+      res%lowrank_solves = ares%lowrank_solves
       res%residual = ares%kkt_residual
       res%converged = ares%converged
       res%nnz_factor = ares%nnz_factor

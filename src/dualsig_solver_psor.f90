@@ -21,7 +21,7 @@ module dualsig_solver_psor
 
   public :: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
   public :: psor_settings_t, psor_result_t
-  public :: psor_solve, project_sor_sweep, kkt_residual
+  public :: psor_solve, project_sor_sweep, kkt_residual, psor_plan_t, psor_plan, psor_sweep
 
   integer, parameter :: BOUND_FREE = 0    !! unconstrained unknown
   integer, parameter :: BOUND_LOWER = 1   !! x_i >= bnd(i)
@@ -40,7 +40,47 @@ module dualsig_solver_psor
     logical :: converged = .false.    !! kkt_residual <= tol
   end type psor_result_t
 
+  !> A sweep prepared once per solve: the unknowns it updates (not fixed, ascending), the
+  !> factors omega / A_ii, and the lower bounds (-huge for free unknowns), so that the
+  !> sweep is branch-free and without divisions.
+  type :: psor_plan_t
+    integer, allocatable :: rows(:)
+    real(dp), allocatable :: winv(:)
+    real(dp), allocatable :: lower(:)
+  end type psor_plan_t
+
 contains
+
+  !> Prepare the sweep for the bounds (kind, bnd) and the relaxation omega.
+  pure subroutine psor_plan(a, kind, bnd, omega, plan)
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(in) :: omega
+    type(psor_plan_t), intent(out) :: plan
+    integer :: i
+    plan%rows = pack([(i, i=1, a%n)], kind /= BOUND_FIXED)
+    plan%winv = omega / a%val(a%diag)
+    plan%lower = merge(bnd, -huge(1.0_dp), kind == BOUND_LOWER)
+  end subroutine psor_plan
+
+  !> One projected SOR sweep with a prepared plan (same iterates as project_sor_sweep).
+  pure subroutine psor_sweep(a, f, plan, x)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    type(psor_plan_t), intent(in) :: plan
+    real(dp), intent(inout) :: x(:)
+    integer :: j, i, p
+    real(dp) :: r
+    do j = 1, size(plan%rows)
+      i = plan%rows(j)
+      r = f(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        r = r - a%val(p) * x(a%col(p))
+      end do
+      x(i) = max(x(i) + plan%winv(i) * r, plan%lower(i))
+    end do
+  end subroutine psor_sweep
 
   !> Projected SOR from the start x (projected on the constraints first).  On return
   !> x is the last iterate; `res` reports sweeps, the final residual and convergence.
@@ -56,6 +96,7 @@ contains
     type(psor_result_t), intent(out) :: res
     type(status_t), intent(out) :: st
     real(dp), allocatable :: work(:)
+    type(psor_plan_t) :: plan
     character(len=120) :: buf
     integer :: it
 
@@ -78,8 +119,9 @@ contains
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work)
     res%converged = res%kkt_residual <= settings%tol
     it = 0
+    call psor_plan(a, kind, bnd, settings%omega, plan)
     do while (.not. res%converged .and. it < settings%max_iter)
-      call project_sor_sweep(a, f, kind, bnd, settings%omega, x)
+      call psor_sweep(a, f, plan, x)
       it = it + 1
       if (mod(it, settings%check_every) == 0 .or. it == settings%max_iter) then
         res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work)
