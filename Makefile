@@ -52,7 +52,7 @@ endif
 LIBRARY := $(LIBDIR)/libdualsig.a
 DRIVER  := $(BINDIR)/dualsig
 
-.PHONY: all lib run check check-lite deps bench clean distclean
+.PHONY: all lib run check check-lite deps bench bench-quick bench-plots bench-peers bench-deps clean distclean
 all: $(LIBRARY) $(DRIVER)
 lib: $(LIBRARY)
 
@@ -138,10 +138,35 @@ check-lite:
 	@DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./$(TEST_EXE)
 
 # ---------------------------------------------------------------- benchmarks
-bench: deps
+# make bench        all tables (about 10 minutes: the largest meshes have 1e6 unknowns), plots
+# make bench-quick  the small tables only (primal, dual_p1, dual_p2 sections; about 1 minute)
+# make bench-peers  the same QPs solved by PETSc (python3-petsc4py), if installed
+BENCH_PACKAGES := gnuplot-nox
+bench-deps: deps
+	@if ! command -v gnuplot >/dev/null; then \
+	  if [ "$$(id -u)" = 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+	    $(BENCH_PACKAGES) >/dev/null || echo "dualsig: could not install $(BENCH_PACKAGES): no plots"; \
+	  else echo "dualsig: for the plots run as root: apt-get install -y $(BENCH_PACKAGES)"; fi; fi
+
+bench: bench-deps
 	@$(MAKE) all
 	@$(MAKE) -s bin/dualsig_bench
 	@./bin/dualsig_bench
+	@$(MAKE) -s bench-plots
+
+bench-quick: bench-deps
+	@$(MAKE) all
+	@$(MAKE) -s bin/dualsig_bench
+	@./bin/dualsig_bench primal dual_p1 dual_p2
+
+bench-plots:
+	@if command -v gnuplot >/dev/null; then gnuplot bench/work_precision.gp && \
+	  echo "dualsig: plots written to out/work_precision.png and out/scaling.png"; \
+	else echo "dualsig: gnuplot not installed: no plots"; fi
+
+bench-peers:
+	@python3 bench/petsc_peers.py out/qp_p2_contact_l8 out/qp_p1_contact_l8 out/qp_p2_contact_l10 \
+	  --csv out/bench_peers.csv
 
 bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) | bin
 	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)

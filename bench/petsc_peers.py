@@ -39,41 +39,64 @@ $PETSC_DIR/lib/python3/dist-packages; without the petsc-dev package there is no 
 link, so the script sets PETSC_DIR=/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real itself
 when PETSC_DIR is unset and that directory exists.  The package is built for Debian's own
 interpreter: when the running python3 (e.g. a pyenv one) cannot import numpy/petsc4py, the
-script re-executes itself once with /usr/bin/python3.
+script re-executes itself once with /usr/bin/python3.  It also sets
+OMPI_MCA_ess_singleton_isolated=1 (unless set) so that Open MPI's MPI_Init in each solver
+child does not spawn an orted helper process.
 
 The problem handed to PETSc
 ---------------------------
 Fixed unknowns (kind 2) are eliminated: the reduced QP on the m = n - #fixed remaining
 unknowns is   min 1/2 y^T A_rr y - (F_r - A_rf bnd_f)^T y,  y_i >= bnd_i for kind 1,
-free (PETSC_NINFINITY / PETSC_INFINITY) for kind 0.  This is the cleanest robust choice:
-A_rr is SPD (A itself is singular or not SPD on the fixed rows only through the way
-they were assembled, and equal bounds l = u are handled very differently by TAO's
-interior-point, trust-region and quasi-Newton codes and by SNES VI), and every solver sees
-exactly the same well-posed problem.  The full x is rebuilt with x_f = bnd_f.
+free (PETSC_NINFINITY / PETSC_INFINITY) for kind 0.  The full x is rebuilt with x_f = bnd_f.
+This is the cleanest robust choice: dualsig's A is the full stiffness matrix (the fixed rows
+and columns are coupled to the others), A_rr is SPD, and every solver sees exactly the same
+well-posed problem, whereas equal bounds l = u are not handled uniformly by the solvers
+(bqpip's source lists "remove fixed variables and treat them correctly" as a TODO; its
+barrier slacks x - l and u - x cannot both stay positive).  The reduced matrix is marked
+SYMMETRIC and SPD.  The initial guess is y = 0 projected onto the bounds.
 
 Solvers (name: method, default PETSc options; each has its own options prefix)
 ------------------------------------------------------------------------------
-    tao-bqpip     TAO bqpip (Mehrotra predictor-corrector interior point for box QPs),
-                  prefix bqpip_.  Its KSP solves (A_rr + D_k) with D_k the barrier diagonal,
-                  which changes every iteration; default a sparse Cholesky
-                  (preonly + cholesky, CHOLMOD when PETSc has SuiteSparse, else MUMPS, else
-                  PETSc's own), since bqpip's own inner tolerance min(mu/10, 1e-3) is loose and
-                  the matrices become very ill-conditioned near the solution.
-    tao-tron      TAO tron (trust-region Newton, gradient projection + Steihaug CG on the free
-                  variables), prefix tron_.  KSP stcg (tron needs a trust-region CG) with
-                  PC icc (ICC(0) of the free-variable submatrix, rebuilt every outer
-                  iteration; cheaper than gamg here), ksp_rtol 1e-6.
-    tao-blmvm     TAO blmvm (bound-constrained limited-memory variable metric, gradient-only;
-                  More-Thuente line search), prefix blmvm_.  Expected to be slow: the
-                  condition number of A grows like h^-2.
-    tao-gpcg      TAO gpcg (gradient projection + CG for bound-constrained QPs, More-Toraldo),
-                  prefix gpcg_.  KSP cg + icc on the free-variable submatrix.
-    snes-vi-chol  SNES vinewtonrsls (reduced-space active-set Newton) on the variational
-                  inequality  0 <= x - l  _|_  A x - F >= 0 (residual A x - F, Jacobian A,
-                  bounds via SNESVISetVariableBounds), prefix vichol_; KSP preonly + cholesky
-                  (CHOLMOD when available, else MUMPS / PETSc), line search basic (the problem
-                  is linear on each active set, the full Newton step is exact).
-    snes-vi-gamg  the same with KSP cg + gamg, ksp_rtol 1e-8, prefix vigamg_.
+"direct" below means preonly + cholesky with -pc_factor_mat_solver_type cholmod when PETSc
+was built with SuiteSparse (Debian's is), else mumps, else PETSc's own factorisation.
+``--list`` prints the exact option strings.
+
+    tao-bqpip      TAO bqpip, Mehrotra predictor-corrector interior point for box QPs
+                   (prefix bqpip_).  Each iteration solves (A_rr + D_k) d = r with a barrier
+                   diagonal D_k that changes every iteration: direct (one CHOLMOD
+                   factorisation per iteration).  cg + icc breaks down (zero pivot on
+                   A_rr + D_k); cg + gamg works but bqpip's inner tolerance
+                   min(mu/10, 1e-3) makes the interior point take twice as many iterations
+                   and it is slower.
+    tao-tron       TAO tron, trust-region Newton: gradient projection, then Steihaug CG on
+                   the free-variable submatrix (prefix tron_).  KSP stcg (tron needs a
+                   trust-region CG) + gamg, ksp_rtol 1e-8.  tron calls KSPReset and changes
+                   the submatrix size whenever the active set changes, which PETSc 3.18's GAMG
+                   cannot handle ("Cannot change local size of Amat after use"), so the GAMG
+                   is wrapped in a PCPYTHON that builds a fresh GAMG for each new operator
+                   (class FreshGAMG).  stcg + icc also works (fastest on small grids, about
+                   2x slower than gamg at 66k unknowns): --petsc-options="-tron_pc_type icc".
+    tao-blmvm      TAO blmvm, bound-constrained limited-memory variable metric, gradient
+                   only, More-Thuente line search (prefix blmvm_).  Its line search works on
+                   objective values, whose decrease drops below rounding near the solution:
+                   it stops with DIVERGED_LS_FAILURE at a KKT residual around 1e-9 (and needs
+                   tens of thousands of iterations, the condition number grows like h^-2).
+                   Reported as it is.
+    tao-gpcg       TAO gpcg, gradient projection + CG for bound-constrained QPs
+                   (More-Toraldo) (prefix gpcg_); direct solves on the free-variable
+                   submatrix.  Not in the original brief; the QP-specific active-set method
+                   of TAO.  With cg + icc at the default ksp_rtol it stalls (>6000
+                   iterations at n = 4k); with ksp_rtol 1e-10 it converges but is ~10x slower
+                   than with the direct solve.
+    snes-vi-chol   SNES vinewtonrsls, reduced-space active-set (semismooth) Newton on the
+                   variational inequality  l <= x  _|_  A x - F  (residual A x - F,
+                   Jacobian A, bounds by SNESVISetVariableBounds) (prefix vichol_); direct
+                   solve of the inactive-set system each Newton step, line search basic (the
+                   problem is linear on a fixed active set, the full step is exact).
+    snes-vi-gamg   the same with cg + gamg, ksp_rtol 1e-8 (prefix vigamg_); GAMG wrapped in
+                   FreshGAMG for the same reason as for tron.
+    snes-vi-hypre  the same with cg + hypre BoomerAMG, ksp_rtol 1e-8 (prefix vihypre_);
+                   BoomerAMG handles the changing operator without a wrapper.
 
 The convergence test (identical for all solvers)
 ------------------------------------------------
@@ -135,16 +158,19 @@ REEXEC_FLAG = 'DUALSIG_PETSC_PEERS_REEXEC'
 SOLVERS = {
     'tao-bqpip': ('tao', 'bqpip', 'bqpip_',
                   '-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type {direct}', 500),
-    'tao-tron': ('tao', 'tron', 'tron_',
-                 '-ksp_type stcg -pc_type icc -ksp_rtol 1e-6', 5000),
-    'tao-blmvm': ('tao', 'blmvm', 'blmvm_', '', 1000000),
-    'tao-gpcg': ('tao', 'gpcg', 'gpcg_', '-ksp_type cg -pc_type icc', 10000),
+    'tao-tron': ('tao', 'tron', 'tron_', '-ksp_type stcg -pc_type gamg -ksp_rtol 1e-8', 5000),
+    'tao-blmvm': ('tao', 'blmvm', 'blmvm_', '', 10 ** 7),
+    'tao-gpcg': ('tao', 'gpcg', 'gpcg_',
+                 '-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type {direct}', 10000),
     'snes-vi-chol': ('snes', 'vinewtonrsls', 'vichol_',
                      '-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type {direct}'
                      ' -snes_linesearch_type basic', 1000),
     'snes-vi-gamg': ('snes', 'vinewtonrsls', 'vigamg_',
                      '-ksp_type cg -pc_type gamg -ksp_rtol 1e-8 -snes_linesearch_type basic',
                      1000),
+    'snes-vi-hypre': ('snes', 'vinewtonrsls', 'vihypre_',
+                      '-ksp_type cg -pc_type hypre -pc_hypre_type boomeramg -ksp_rtol 1e-8'
+                      ' -snes_linesearch_type basic', 1000),
 }
 
 
@@ -632,10 +658,9 @@ def run_one(name, prob, args):
     if rd.poll(hard):
         try:
             res = rd.recv()
-        except EOFError:
-            res = None
+        except EOFError:            # the child died without an answer (crash, MPI_Abort)
+            p.join(10)
     if res is None:
-        p.join(5)
         if p.is_alive():
             p.kill()            # only the child started just above
             status = 'killed (hard timeout)'
@@ -650,8 +675,11 @@ def run_one(name, prob, args):
 
 
 def fmt_row(cols, widths):
-    return '  '.join(str(c).rjust(w) if i not in (0,) and i != len(cols) - 1 else str(c).ljust(w)
-                     for i, (c, w) in enumerate(zip(cols, widths)))
+    """First column left-aligned, last one free, the others right-aligned."""
+    out = [str(cols[0]).ljust(widths[0])]
+    out += [str(c).rjust(w) for c, w in zip(cols[1:-1], widths[1:-1])]
+    out.append(str(cols[-1]))
+    return '  '.join(out)
 
 
 def main(argv=None):
@@ -680,10 +708,14 @@ def main(argv=None):
     if not ensure_petsc4py():
         print(SKIP_LINE)
         return 0
+    # Open MPI: let each child's MPI_Init run as an isolated singleton instead of spawning
+    # an orted helper process per solver run
+    os.environ.setdefault('OMPI_MCA_ess_singleton_isolated', '1')
 
-    widths = [13, 8, 8, 7, 8, 10, 10, 30]
+    widths = [13, 8, 8, 8, 8, 10, 10, 0]
     head = ['solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'status']
     rows_out = []
+    used = {}
     for base in args.bases:
         prob = Problem(base)
         print('%s: n = %d (free %d, bounded %d, fixed %d), reduced m = %d, nnz(A_rr) = %d;'
@@ -699,11 +731,19 @@ def main(argv=None):
                            r['status']], widths), flush=True)
             if 'traceback' in r:
                 sys.stderr.write(r['traceback'])
+            if r.get('options') is not None:
+                used[name] = r['options'] + (' (GAMG wrapped in FreshGAMG)'
+                                             if r.get('gamg_wrapped') else '')
             rows_out.append([base, prob.n, name, '%.4f' % r['setup_s'], '%.4f' % r['solve_s'],
                              r['iterations'], r['ksp_iterations'], '%.6e' % r['kkt'],
                              '%.6e' % r['rel_diff'], r['status']])
         print(flush=True)
 
+    print('PETSc options (defaults%s):' % (', then ' + args.petsc_options
+                                          if args.petsc_options else ''))
+    for name in names:
+        if name in used:
+            print('  %-13s %s' % (name, used[name] or '(none)'))
     if args.csv:
         d = os.path.dirname(args.csv)
         if d:

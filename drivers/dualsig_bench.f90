@@ -30,12 +30,18 @@ program dualsig_bench
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_estimate_errors, only: p1_error_norms
   use dualsig_sparse, only: csr_t
-  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free
+  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free, cholesky_solve
   use dualsig_assembly_dual_p1, only: assemble_dual_p1
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve
   use dualsig_estimate_dual_p2, only: dual_p2_error
+  use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
+  use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_METIS
+  use dualsig_assembly_equilibrium, only: equilibrium_map_t, equilibrium_map, equilibrium_elements, &
+                                          assemble_equilibrium_global
+  use dualsig_kinds, only: i8
+  use dualsig_io_matrix_market, only: write_qp_matrix_market
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -47,6 +53,13 @@ program dualsig_bench
   integer, parameter :: max_level_dual = 7        !! finest level of the dual benchmark
   integer, parameter :: max_level_uzawa = 6       !! Uzawa needs O(1/h) iterations: up to this level
   integer, parameter :: max_level_p2 = 7           !! finest level of the P2 dual benchmark
+  integer, parameter :: max_level_large = 10       !! 1024^2 cells: 1.05e6 primal unknowns
+  integer, parameter :: max_level_large_dual_p1 = 10
+  integer, parameter :: max_level_large_dual_p2 = 9
+  integer, parameter :: first_level_reported = 5
+  integer, parameter :: first_level_metis = 8      !! METIS analysis is reported from this level on
+  integer, parameter :: first_level_fit = 7        !! levels used to fit time ~ N^p (smaller ones are noise)
+  integer, parameter :: export_levels(2) = [8, 10] !! QPs exported for the PETSc comparison
   integer, parameter :: max_level_p2_uzawa = 3     !! plain Uzawa on (4.8): ~16x more iterations per level
 
   type(scene_t) :: scene
@@ -56,10 +69,22 @@ program dualsig_bench
   real(dp), allocatable :: u_prev(:), u_start(:), x(:), y(:)
   real(dp) :: t_mv, t_sw, omega_auto, lmin, lmax
   integer :: s, level, steps, csv
+  character(len=32) :: sections(8) = ''
+  integer :: nsections = 0
   character(len=*), parameter :: head = &
     '     scene  lvl     ndof  sweep/matvec  omega   start    sweeps   seconds      err_u_H1  kkt_residual'
 
   call execute_command_line('mkdir -p out')
+  call get_sections()
+  if (run_section('large') .or. run_section('large_p2')) &
+    call bench_large('p2_contact', max_level_large, max_level_large_dual_p2)
+  if (run_section('large') .or. run_section('large_p1')) &
+    call bench_large('p1_contact', max_level_large, max_level_large_dual_p1)
+  if (nsections > 0 .and. .not. run_section('primal')) then
+    if (run_section('dual_p1')) call bench_dual_p1()
+    if (run_section('dual_p2')) call bench_dual_p2()
+    stop
+  end if
   open (newunit=csv, file='out/bench_primal.csv', status='replace')
   write (csv, '(a)') 'scene,level,ndof,sweep_over_matvec,omega,start,sweeps,seconds,err_u_H1,kkt_residual'
   write (*, '(a)') 'dualsig_bench: projected SOR, KKT tolerance 1e-10, medians of 21 timings'
@@ -100,10 +125,216 @@ program dualsig_bench
   end do
   close (csv)
   write (*, '(a)') 'dualsig_bench: table written to out/bench_primal.csv'
-  call bench_dual_p1()
-  call bench_dual_p2()
+  if (run_section('dual_p1')) call bench_dual_p1()
+  if (run_section('dual_p2')) call bench_dual_p2()
 
 contains
+
+  !> Sections to run: the command-line arguments (primal, dual_p1, dual_p2, large, or
+  !> large_p1 / large_p2 for one scene of `large`), all of them without arguments.
+  subroutine get_sections()
+    integer :: k
+    nsections = min(command_argument_count(), size(sections))
+    do k = 1, nsections
+      call get_command_argument(k, sections(k))
+    end do
+  end subroutine get_sections
+
+  logical function run_section(name)
+    character(len=*), intent(in) :: name
+    run_section = nsections == 0 .or. any(sections(1:nsections) == name)
+  end function run_section
+
+  !> Peak resident memory of this process so far, MB (VmHWM of /proc/self/status; 0 if unknown).
+  real(dp) function peak_mb()
+    character(len=256) :: line
+    integer :: u, ios, kb
+    peak_mb = 0.0_dp
+    open (newunit=u, file='/proc/self/status', status='old', action='read', iostat=ios)
+    if (ios /= 0) return
+    do
+      read (u, '(a)', iostat=ios) line
+      if (ios /= 0) exit
+      if (line(1:6) == 'VmHWM:') then
+        read (line(7:), *, iostat=ios) kb
+        if (ios == 0) peak_mb = kb / 1024.0_dp
+        exit
+      end if
+    end do
+    close (u)
+  end function peak_mb
+
+  !> Work-precision and scaling up to ~1e6 primal unknowns for one manufactured scene:
+  !> grid sequencing; per level the active-set primal solve (warm start from the
+  !> interpolated coarser solution) against ONE analyse + factorise + solve of the same
+  !> matrix without the Signorini constraints (AMD; METIS reported beside it), the error,
+  !> peak memory; the feasible dual solve (P1: active set in rotated variables, P2:
+  !> augmented Lagrangian) against one analyse + factorisation of its own matrix.
+  subroutine bench_large(scene_name, lmax, lmax_dual)
+    character(len=*), intent(in) :: scene_name
+    integer, intent(in) :: lmax, lmax_dual
+    type(active_set_settings_t) :: aset
+    type(active_set_result_t) :: ares
+    type(csr_t) :: ar, ad
+    type(cholesky_t) :: chol
+    type(dual_p1_settings_t) :: d1set
+    type(dual_p1_result_t) :: d1res
+    type(dual_p1_bounds_t) :: b1
+    type(dual_p2_settings_t) :: d2set
+    type(dual_p2_result_t) :: d2res
+    type(dual_p2_field_t) :: field
+    real(dp), allocatable :: u(:), uf(:), q(:), qf(:), x(:), bd(:)
+    logical, allocatable :: is_gamma_a(:)
+    real(dp) :: t0, tp, tb, tbm, td, tdb, e0, e1, err, nlog(20), tlog(20, 3)
+    integer :: lcsv, i, p, nfit
+    integer(i8) :: nnz_amd, nnz_metis
+    real(dp) :: fl_amd, fl_metis
+    character(len=12) :: dual_name
+    character(len=64) :: qp_name
+    open (newunit=lcsv, file='out/bench_large_' // scene_name // '.csv', status='replace')
+    write (lcsv, '(a)') 'scene,level,n,solver,seconds,iterations,factorisations,bordered,baseline_s,ratio,' // &
+      'error,residual,peak_mb,nnz_amd,nnz_metis,baseline_metis_s'
+    write (*, '(/,a)') 'dualsig_bench: work-precision and scaling, ' // scene_name // &
+      ' (grid sequencing; baseline = one AMD analyse+factorise+solve of the unconstrained matrix)'
+    write (*, '(a)') '  lvl         N     solver   iters fact bord   seconds  baseline   ratio       error    residual' // &
+      '   peak MB  nnzL(amd)  nnzL(metis) metis_s'
+    call scene_lookup(scene_name, scene, st)
+    call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
+    nfit = 0
+    dual_name = merge('active_set', 'augmented ', scene%problem == PROBLEM_P1)
+    do level = 1, lmax
+      if (level > 1) then
+        call mesh_refine_uniform(mesh, finer, st)
+        allocate (uf(finer%nnode))
+        call mesh_prolongate_p1(mesh, finer, u, uf)
+        call move_alloc(uf, u)
+        if (allocated(q)) deallocate (q)
+        mesh = finer
+      else
+        allocate (u(mesh%nnode), source=0.0_dp)
+      end if
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
+                              sys%kind, sys%bnd, st)
+      t0 = wall()
+      call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st)
+      tp = wall() - t0
+      if (level < first_level_reported) cycle
+      ! baseline: the same matrix with only the Dirichlet rows, one analyse+factorise+solve
+      ar = sys%a
+      do i = 1, ar%n
+        do p = ar%rowptr(i), ar%rowptr(i + 1) - 1
+          if (sys%kind(i) == BOUND_FIXED .or. sys%kind(ar%col(p)) == BOUND_FIXED) ar%val(p) = 0.0_dp
+        end do
+        if (sys%kind(i) == BOUND_FIXED) ar%val(ar%diag(i)) = 1.0_dp
+      end do
+      allocate (x(ar%n))
+      t0 = wall()
+      call cholesky_factor(ar, chol, st, ORDERING_AMD)
+      call cholesky_solve(chol, sys%load, x, st)
+      tb = wall() - t0
+      nnz_amd = chol%nnz_factor
+      fl_amd = chol%flops
+      call cholesky_free(chol)
+      nnz_metis = 0
+      tbm = 0.0_dp
+      if (level >= first_level_metis) then
+        t0 = wall()
+        call cholesky_factor(ar, chol, st, ORDERING_METIS)
+        call cholesky_solve(chol, sys%load, x, st)
+        tbm = wall() - t0
+        nnz_metis = chol%nnz_factor
+        fl_metis = chol%flops
+        call cholesky_free(chol)
+      end if
+      deallocate (x)
+      if (any(level == export_levels)) then
+        write (qp_name, '(a,i0)') 'out/qp_' // scene_name // '_l', level
+        call write_qp_matrix_market(trim(qp_name), sys%a, sys%load, sys%kind, sys%bnd, u, st)
+      end if
+      call p1_error_norms(mesh, u, scene%u, scene%grad_u, tri_rule(12), e0, e1)
+      err = e1
+      if (scene%problem == PROBLEM_P1) err = sqrt(e0**2 + e1**2)
+      write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,2i11,f8.2)') level, mesh%nnode, 'active_set', &
+        ares%iterations, ares%factorisations, ares%lowrank_solves, tp, tb, tp / tb, err, ares%kkt_residual, &
+        peak_mb(), nnz_amd, nnz_metis, tbm
+      write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,2(",",i0),' // &
+        '",",es12.4)') scene_name, level, mesh%nnode, 'active_set', tp, ares%iterations, ares%factorisations, &
+        ares%lowrank_solves, tb, tp / tb, err, ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, tbm
+      flush (6)
+      if (level >= first_level_fit) then
+        nfit = nfit + 1
+        nlog(nfit) = log(real(mesh%nnode, dp))
+        tlog(nfit, 1) = log(tp)
+        tlog(nfit, 2) = log(tb)
+        tlog(nfit, 3) = 0.0_dp
+      end if
+      if (level > lmax_dual) cycle
+      ! the feasible dual, against one analyse + factorisation of its own matrix
+      if (scene%problem == PROBLEM_P1) then
+        allocate (bd(2 * mesh%nnode))
+        call assemble_dual_p1(mesh, scene%f, tri_rule(5), ad, bd)
+        t0 = wall()
+        call cholesky_factor(ad, chol, st, ORDERING_AMD)
+        tdb = wall() - t0
+        call cholesky_free(chol)
+        deallocate (bd)
+        t0 = wall()
+        call dual_p1_solve(mesh, scene%f, tri_rule(5), d1set, q, d1res, st, u_primal=u)
+        td = wall() - t0
+        call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(12), b1, scene%x_breaks(1:scene%nbreaks))
+        write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, 2 * mesh%nnode, 'dual_p1', &
+          d1res%iterations, d1res%factorisations, d1res%lowrank_solves, td, tdb, td / tdb, sqrt(b1%est), &
+          d1res%residual, peak_mb()
+        write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
+          '",0,0,0")') scene_name, level, 2 * mesh%nnode, 'dual_p1', td, d1res%iterations, d1res%factorisations, &
+          d1res%lowrank_solves, tdb, td / tdb, sqrt(b1%est), d1res%residual, peak_mb()
+      else
+        is_gamma_a = mesh%bedge_marker == 1
+        t0 = wall()
+        call dual_p2_solve(mesh, scene%f, is_gamma_a, 0.0_dp, d2set, field, d2res, st, scene%x_breaks(1:1), u)
+        td = wall() - t0
+        block
+          type(equilibrium_map_t) :: map
+          real(dp), allocatable :: c(:,:,:), ae(:,:,:), dd(:,:)
+          call equilibrium_elements(mesh, c, ae, dd, st)
+          call equilibrium_map(mesh, map)
+          call assemble_equilibrium_global(map, ae, ad)
+        end block
+        t0 = wall()
+        call cholesky_factor(ad, chol, st, ORDERING_AMD)
+        tdb = wall() - t0
+        call cholesky_free(chol)
+        write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, ad%n, 'dual_p2', d2res%iterations, &
+          d2res%factorisations, 0, td, tdb, td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), &
+          d2res%defect, peak_mb()
+        write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
+          '",0,0,0")') scene_name, level, ad%n, 'dual_p2', td, d2res%iterations, d2res%factorisations, 0, tdb, &
+          td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect, peak_mb()
+      end if
+      if (level >= first_level_fit) tlog(nfit, 3) = log(td)
+      flush (6)
+    end do
+    close (lcsv)
+    write (*, '(a,f6.3,a,f6.3,a)') '  fitted exponent p in time ~ N^p (levels >= 7): active set ', &
+      slope(nlog(1:nfit), tlog(1:nfit, 1)), ', one factorisation ', slope(nlog(1:nfit), tlog(1:nfit, 2)), &
+      '  (N = primal unknowns)'
+    if (count(tlog(1:nfit, 3) /= 0.0_dp) >= 2) write (*, '(a,a,a,f6.3)') '  fitted exponent, dual (', &
+      trim(dual_name), '): ', slope(pack(nlog(1:nfit), tlog(1:nfit, 3) /= 0.0_dp), pack(tlog(1:nfit, 3), &
+      tlog(1:nfit, 3) /= 0.0_dp))
+    write (*, '(a)') 'dualsig_bench: table written to out/bench_large_' // scene_name // '.csv'
+    deallocate (u)
+    if (allocated(q)) deallocate (q)
+  end subroutine bench_large
+
+  !> Least-squares slope of y against x.
+  pure real(dp) function slope(x, y)
+    real(dp), intent(in) :: x(:), y(:)
+    real(dp) :: xm, ym
+    xm = sum(x) / size(x)
+    ym = sum(y) / size(y)
+    slope = sum((x - xm) * (y - ym)) / max(sum((x - xm)**2), tiny(1.0_dp))
+  end function slope
 
   !> Equilibrium dual of P2: plain Uzawa (4.8) against the augmented-Lagrangian variant.
   subroutine bench_dual_p2()

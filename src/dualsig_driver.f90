@@ -114,7 +114,7 @@ contains
     type(mesh_quality_t) :: q0
     type(status_t) :: st_solve
     integer, allocatable :: gamma_u(:), gamma_a(:)
-    real(dp), allocatable :: u(:), u_prev(:), q_prev(:), q_fine(:)
+    real(dp), allocatable :: u(:), u_prev(:)
     real(dp) :: h, err_l2, err_h1semi, err_energy, rate, seconds, lmin, lmax
     integer :: level, steps, nflip, nonconverged
     logical :: ok
@@ -227,13 +227,6 @@ contains
         if (cfg%nested) then
           allocate (u_prev(finer%nnode))
           call mesh_prolongate_p1(mesh, finer, u, u_prev)
-          if (allocated(q_prev)) then
-            ! the P1 dual field, component by component (interleaved storage)
-            allocate (q_fine(2 * finer%nnode))
-            call mesh_prolongate_p1(mesh, finer, q_prev(1::2), q_fine(1::2))
-            call mesh_prolongate_p1(mesh, finer, q_prev(2::2), q_fine(2::2))
-            call move_alloc(q_fine, q_prev)
-          end if
         end if
         mesh = finer
       end if
@@ -403,16 +396,11 @@ contains
       ! Uzawa tolerance tied to the discretisation: no point in solving far below h^2
       dset%tol = max(cfg%dual_tol, cfg%dual_tol_h2 * (h / mesh_diameter(mesh))**2)
       t0 = wall_seconds()
-      if (allocated(q_prev) .and. cfg%nested) then
-        call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual, q_prev)
-      else
-        call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual)
-      end if
+      call dual_p1_solve(mesh, scene%f, load_rule, dset, q, dres, st_dual, u_primal=u)
       t0 = wall_seconds() - t0
       call take_status(st_dual, stop_run)
       if (stop_run) return
       call dual_p1_bounds(mesh, u, q, scene%f, bound_rule, bounds, scene%x_breaks(1:scene%nbreaks))
-      q_prev = q
       call table_set(tab, 'dual_iters', real(dres%iterations, dp))
       call table_set(tab, 'dual_s', t0)
       call table_set(tab, 'est', bounds%est)
@@ -452,7 +440,7 @@ contains
       d2set%tol = max(cfg%dual_tol, cfg%dual_tol_h2 * (h / mesh_diameter(mesh))**2)
       t0 = wall_seconds()
       call dual_p2_solve(mesh, scene%f, is_gamma_a, minval(mesh%xy(1, :)), d2set, field, dres, st_dual, &
-                         scene%x_breaks(1:scene%nbreaks))
+                         scene%x_breaks(1:scene%nbreaks), u)
       t0 = wall_seconds() - t0
       call take_status(st_dual, stop_run)
       if (stop_run) return

@@ -75,8 +75,11 @@ contains
   !> st carries DS_WARN_NOT_CONVERGED when the iteration limit was reached (q is still
   !> feasible and usable in the bounds).
   !> q_start (optional, 2 nnode): a start for the active-set solver, e.g. the coarser
-  !> level's field interpolated (its contact set predicts the first active set).
-  subroutine dual_p1_solve(mesh, f, rule, settings, q, res, st, q_start)
+  !> level's field interpolated.  u_primal (optional, nnode): the primal solution on this
+  !> mesh; by complementarity ((q.nu) u = 0 on Gamma) the constraints q.nu >= 0 are predicted
+  !> active where u > 0, which is a better first guess than an interpolated field
+  !> (preferred when both are given).
+  subroutine dual_p1_solve(mesh, f, rule, settings, q, res, st, q_start, u_primal)
     type(mesh_t), intent(in) :: mesh
     procedure(scalar_field) :: f
     type(tri_rule_t), intent(in) :: rule
@@ -85,6 +88,7 @@ contains
     type(dual_p1_result_t), intent(out) :: res
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: q_start(:)
+    real(dp), intent(in), optional :: u_primal(:)
     real(dp), allocatable :: t(:,:,:), tinv(:,:,:), b(:), y(:), z(:), s(:), zero(:)
     integer, allocatable :: kind(:), row_node(:), row_kind(:)
     type(csr_t) :: a
@@ -94,6 +98,7 @@ contains
     type(uzawa_result_t) :: ures
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
+    integer :: i
 
     call dual_p1_transforms(mesh, t, tinv, kind, st)
     if (st%code /= 0) return
@@ -129,7 +134,13 @@ contains
       call assemble_dual_p1(mesh, f, rule, a, b, t)
       allocate (s(2 * mesh%nnode), source=0.0_dp)
       allocate (zero(2 * mesh%nnode), source=0.0_dp)
-      if (present(q_start)) then
+      if (present(u_primal)) then
+        ! held (q.nu = 0) where the primal solution separates, free where it is in contact
+        do i = 1, mesh%nnode
+          if (mesh%node_on_boundary(i)) s(2 * i - 1:2 * i) = merge(0.0_dp, 1.0_dp, u_primal(i) > 0.0_dp)
+        end do
+        where (kind /= BOUND_LOWER) s = 0.0_dp
+      else if (present(q_start)) then
         call dual_p1_nodewise(tinv, q_start, s)
         where (kind == BOUND_LOWER) s = max(s, 0.0_dp)
       end if

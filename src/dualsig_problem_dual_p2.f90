@@ -41,8 +41,10 @@ module dualsig_problem_dual_p2
   public :: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve, dual_p2_lambda, &
             dual_p2_check_assumptions
 
-  !> Degree of the quadrature for the element loads b_e (lambda^f is not a polynomial).
-  integer, parameter :: load_degree = 10
+  !> Degree of the quadrature for the element loads b_e.  lambda^f is not a polynomial;
+  !> the loads only affect how close q^h is to the exact discrete minimiser, never the
+  !> admissibility of lambda^h (any q^h of K_h gives an admissible lambda^h).
+  integer, parameter :: load_degree = 6
 
   type :: dual_p2_settings_t
     character(len=16) :: method = 'augmented'  !! 'augmented' or 'uzawa'
@@ -97,7 +99,10 @@ contains
   !> Solve (4.5) on `mesh`; is_gamma_a(nbedge) marks the Signorini edges, x_start is the
   !> abscissa where lambda_bar's integration starts (f must be defined on the mesh's
   !> bounding box).
-  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks)
+  !> u_primal (optional, nnode): the primal solution on the same mesh; by complementarity
+  !> (lambda . nu u = 0 on Gamma_a) the dual constraint is predicted active where u > 0,
+  !> which starts the active-set method near its solution.
+  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal)
     type(mesh_t), intent(in) :: mesh
     procedure(scalar_field) :: f
     logical, intent(in) :: is_gamma_a(:)
@@ -107,6 +112,7 @@ contains
     type(dual_p2_result_t), intent(out) :: res
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)   !! abscissae of kinks of f (see particular field)
+    real(dp), intent(in), optional :: u_primal(:)
     type(equilibrium_map_t) :: map
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp
@@ -154,6 +160,7 @@ contains
       allocate (kind(2 * mesh%nedge), source=BOUND_FREE)
       where (on_gamma_a) kind = BOUND_LOWER
       x = 0.0_dp
+      if (present(u_primal)) call start_from_primal(mesh, u_primal, is_gamma_a, bnd, x)
       aug%r = settings%penalty
       aug%tol = settings%defect_tol
       aug%ordering = settings%ordering
@@ -195,6 +202,30 @@ contains
     call equilibrium_to_local(map, x, field%beta)
     res%defect = divergence_defect(d, field%beta)
   end subroutine dual_p2_solve
+
+  !> Start values of the Gamma_a unknowns from the primal solution: at its bound (predicted
+  !> active: lambda . nu = 0) where u > 0, above it where u = 0 (contact: positive flux).
+  pure subroutine start_from_primal(mesh, u, is_gamma_a, bnd, x)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:)
+    logical, intent(in) :: is_gamma_a(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(inout) :: x(:)
+    integer :: j, i, e, node, dof
+    do j = 1, mesh%nbedge
+      if (.not. is_gamma_a(j)) cycle
+      e = mesh%bedge_edge(j)
+      do i = 1, 2
+        node = mesh%bedge_nodes(i, j)
+        dof = 2 * (e - 1) + merge(1, 2, node == mesh%edge_nodes(1, e))
+        if (u(node) > 0.0_dp) then
+          x(dof) = bnd(dof)
+        else
+          x(dof) = bnd(dof) + 1.0_dp
+        end if
+      end do
+    end do
+  end subroutine start_from_primal
 
   !> lambda^h = lambda^f + q^h at the point with barycentric coordinates bary of triangle t.
   function dual_p2_lambda(field, mesh, f, t, bary) result(v)
