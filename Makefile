@@ -164,9 +164,17 @@ bench-plots:
 	  echo "dualsig: plots written to out/work_precision.png and out/scaling.png"; \
 	else echo "dualsig: gnuplot not installed: no plots"; fi
 
+# PETSc is optional: installed here when possible (python3-petsc4py: about 150 MB with MPI),
+# otherwise the script prints that it is skipped.  Needs the QP exports of `make bench`.
+PEER_PACKAGES := python3-petsc4py
+PEER_QPS ?= out/qp_p2_contact_l8 out/qp_p1_contact_l8 out/qp_p2_contact_l10
+PEER_OPTIONS ?= --time-limit 400
 bench-peers:
-	@python3 bench/petsc_peers.py out/qp_p2_contact_l8 out/qp_p1_contact_l8 out/qp_p2_contact_l10 \
-	  --csv out/bench_peers.csv
+	@if ! dpkg-query -W -f='$${Status}' $(PEER_PACKAGES) 2>/dev/null | grep -q "install ok installed"; then \
+	  if [ "$$(id -u)" = 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+	    $(PEER_PACKAGES) >/dev/null || true; fi; fi
+	@for q in $(PEER_QPS); do [ -f $${q}_A.mtx ] || { echo "dualsig: $${q}_A.mtx missing: run make bench first"; exit 1; }; done
+	@python3 bench/petsc_peers.py $(PEER_QPS) --csv out/bench_peers.csv $(PEER_OPTIONS)
 
 bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) | bin
 	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)

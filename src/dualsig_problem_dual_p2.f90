@@ -44,7 +44,7 @@ module dualsig_problem_dual_p2
   !> Degree of the quadrature for the element loads b_e.  lambda^f is not a polynomial;
   !> the loads only affect how close q^h is to the exact discrete minimiser, never the
   !> admissibility of lambda^h (any q^h of K_h gives an admissible lambda^h).
-  integer, parameter :: load_degree = 6
+  integer, parameter :: load_degree = 5
 
   type :: dual_p2_settings_t
     character(len=16) :: method = 'augmented'  !! 'augmented' or 'uzawa'
