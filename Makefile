@@ -3,6 +3,7 @@
 #   make            build lib/libdualsig.a, include/*.mod and bin/dualsig (optimised)
 #   make run        install missing Debian packages, build, run data/default.nml
 #   make check      install missing Debian packages, build the debug library, run the test suite
+#   make check-asan the same suite under Address/UndefinedBehavior/LeakSanitizer
 #   make bench      benchmarks (see README, "Benchmarks")
 #   make BUILD=debug        the checked build (-fcheck=all, FPE traps) into build/debug
 #   make FFLAGS='...'       override the compiler flags
@@ -52,7 +53,7 @@ endif
 LIBRARY := $(LIBDIR)/libdualsig.a
 DRIVER  := $(BINDIR)/dualsig
 
-.PHONY: all lib run check check-lite deps bench bench-quick bench-plots bench-peers bench-deps clean distclean
+.PHONY: all lib run check check-lite check-asan deps bench bench-quick bench-plots bench-peers bench-deps clean distclean
 all: $(LIBRARY) $(DRIVER)
 lib: $(LIBRARY)
 
@@ -106,7 +107,6 @@ run: deps
 # ---------------------------------------------------------------- tests
 TEST_PF   := $(sort $(wildcard test/test_*.pf))
 TBLD      := build/test
-TEST_EXE  := $(TBLD)/dualsig_tests
 
 ifdef PFUNIT_DIR
 # Real pFUnit 4: the same .pf files through pFUnit's own preprocessor and runner.
@@ -129,13 +129,26 @@ check: deps
 endif
 
 # The fallback runner: test/pfunit_lite.py translates the .pf subset into Fortran.
+# TEST_BUILD names the library build the suite links (debug, or asan for check-asan).
+TEST_BUILD ?= debug
+TEST_FLAGS ?= $(DEBUG_FLAGS)
 check-lite:
-	@mkdir -p $(TBLD)
-	@python3 test/pfunit_lite.py --out-dir $(TBLD) $(TEST_PF)
-	@$(FC) $(STD_FLAGS) $(DEBUG_FLAGS) -Wno-unused-dummy-argument -J$(TBLD) -I$(TBLD) \
-	   -Ibuild/debug/mod test/lite/funit.f90 $(patsubst test/%.pf,$(TBLD)/%.F90,$(TEST_PF)) \
-	   $(TBLD)/pfunit_lite_main.F90 -o $(TEST_EXE) build/debug/libdualsig.a $(LIBS)
-	@DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./$(TEST_EXE)
+	@mkdir -p $(TBLD)-$(TEST_BUILD)
+	@python3 test/pfunit_lite.py --out-dir $(TBLD)-$(TEST_BUILD) $(TEST_PF)
+	@$(FC) $(STD_FLAGS) $(TEST_FLAGS) -Wno-unused-dummy-argument -J$(TBLD)-$(TEST_BUILD) -I$(TBLD)-$(TEST_BUILD) \
+	   -Ibuild/$(TEST_BUILD)/mod test/lite/funit.f90 $(patsubst test/%.pf,$(TBLD)-$(TEST_BUILD)/%.F90,$(TEST_PF)) \
+	   $(TBLD)-$(TEST_BUILD)/pfunit_lite_main.F90 -o $(TBLD)-$(TEST_BUILD)/dualsig_tests \
+	   build/$(TEST_BUILD)/libdualsig.a $(LIBS)
+	@DUALSIG_DRIVER=$(CURDIR)/build/$(TEST_BUILD)/dualsig DUALSIG_ROOT=$(CURDIR) ./$(TBLD)-$(TEST_BUILD)/dualsig_tests
+
+# The suite under AddressSanitizer, UndefinedBehaviorSanitizer and LeakSanitizer (with the
+# run-time checks and floating-point traps of the debug build).
+ASAN_FLAGS := -g -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fcheck=all \
+              -ffpe-trap=invalid,zero,overflow -fbacktrace
+check-asan: deps
+	@$(MAKE) BUILD=asan FFLAGS="$(ASAN_FLAGS)" all
+	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=halt_on_error=1 \
+	  $(MAKE) check-lite TEST_BUILD=asan TEST_FLAGS="$(ASAN_FLAGS)"
 
 # ---------------------------------------------------------------- benchmarks
 # make bench        all tables (about 10 minutes: the largest meshes have 1e6 unknowns), plots

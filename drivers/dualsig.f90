@@ -10,7 +10,7 @@ program dualsig
   implicit none
   character(len=:), allocatable :: path
   type(status_t) :: st
-  integer :: n
+  integer :: n, exit_code
 
   if (command_argument_count() /= 1) then
     write (error_unit, '(a)') 'usage: dualsig FILE.nml   (see README.md for the namelist groups)'
@@ -20,11 +20,16 @@ program dualsig
   allocate (character(len=n) :: path)
   call get_command_argument(1, path)
   call run_namelist_file(path, st)
+  exit_code = 0
   if (.not. is_ok(st)) then
     write (error_unit, '(a)') 'dualsig: error: ' // st%msg
-    stop 2, quiet=.true.
+    exit_code = 2
   else if (st%code /= DS_OK) then
     write (error_unit, '(a)') 'dualsig: warning: ' // st%msg
-    stop 3, quiet=.true.
+    exit_code = 3
   end if
+  ! release everything before stopping (a leak checker sees what is left at STOP)
+  deallocate (path)
+  if (allocated(st%msg)) deallocate (st%msg)
+  if (exit_code /= 0) stop exit_code, quiet=.true.
 end program dualsig
