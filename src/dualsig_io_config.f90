@@ -11,6 +11,8 @@
 !> Values are then checked for range.  Every message names the file, the group, the
 !> line and what was expected.  See README.md for the variables and their defaults.
 module dualsig_io_config
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use, intrinsic :: ieee_exceptions, only: ieee_usual, ieee_get_halting_mode, ieee_set_halting_mode
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_IO
   use dualsig_scenes, only: max_markers
@@ -22,6 +24,7 @@ module dualsig_io_config
 
   integer, parameter :: max_line_len = 1024     !! longest accepted line of a namelist file
   integer, parameter :: max_levels = 14         !! largest accepted number of mesh levels
+  integer, parameter :: wide = 512              !! string length for reading (longer values are rejected)
 
   character(len=*), parameter :: run_items = &
     'title scene output gamma_u_markers gamma_a_markers'
@@ -444,17 +447,17 @@ contains
     character(len=*), intent(out) :: msg
     character(len=max_line_len + 16) :: rec(size(assign) + 2)
     ! &run
-    character(len=80) :: title
-    character(len=32) :: scene
-    character(len=256) :: output
+    character(len=wide) :: title
+    character(len=wide) :: scene
+    character(len=wide) :: output
     integer :: gamma_u_markers(max_markers), gamma_a_markers(max_markers)
     ! &mesh
-    character(len=16) :: source, pattern
-    character(len=256) :: file
+    character(len=wide) :: source, pattern
+    character(len=wide) :: file
     real(dp) :: x0, x1, y0, y1
     integer :: nx, ny, n, levels
     ! &solver
-    character(len=16) :: method
+    character(len=wide) :: method
     real(dp) :: omega, tol
     logical :: omega_auto, nested
     integer :: max_iter, check_every
@@ -462,6 +465,7 @@ contains
     namelist /mesh/ source, file, x0, x1, y0, y1, nx, ny, n, pattern, levels
     namelist /solver/ method, omega, omega_auto, tol, max_iter, check_every, nested
     integer :: k
+    logical :: saved_halting(size(ieee_usual))
 
     if (gname == 'dual') then
       call read_dual_group(assign, cfg, ios, msg)
@@ -482,11 +486,17 @@ contains
       output = cfg%output
       gamma_u_markers = cfg%gamma_u_markers
       gamma_a_markers = cfg%gamma_a_markers
+      call fp_traps_off(saved_halting)
       read (rec, nml=run, iostat=ios, iomsg=msg)
+      call ieee_set_halting_mode(ieee_usual, saved_halting)
       if (ios /= 0) return
-      cfg%title = title
-      cfg%scene = scene
-      cfg%output = output
+      if (too_long(title, cfg%title) .or. too_long(scene, cfg%scene) .or. too_long(output, cfg%output)) then
+        call bad_value('a shorter string', ios, msg)
+        return
+      end if
+      cfg%title = title(1:len(cfg%title))
+      cfg%scene = scene(1:len(cfg%scene))
+      cfg%output = output(1:len(cfg%output))
       cfg%gamma_u_markers = gamma_u_markers
       cfg%gamma_a_markers = gamma_a_markers
     case ('mesh')
@@ -501,10 +511,21 @@ contains
       n = cfg%n
       pattern = cfg%pattern
       levels = cfg%levels
+      call fp_traps_off(saved_halting)
       read (rec, nml=mesh, iostat=ios, iomsg=msg)
+      call ieee_set_halting_mode(ieee_usual, saved_halting)
       if (ios /= 0) return
-      cfg%mesh_source = source
-      cfg%mesh_file = file
+      if (.not. all(ieee_is_finite([x0, x1, y0, y1]))) then
+        call bad_value('a finite real number', ios, msg)
+        return
+      end if
+      if (too_long(source, cfg%mesh_source) .or. too_long(pattern, cfg%pattern) .or. &
+          too_long(file, cfg%mesh_file)) then
+        call bad_value('a shorter string', ios, msg)
+        return
+      end if
+      cfg%mesh_source = source(1:len(cfg%mesh_source))
+      cfg%mesh_file = file(1:len(cfg%mesh_file))
       cfg%x0 = x0
       cfg%x1 = x1
       cfg%y0 = y0
@@ -512,7 +533,7 @@ contains
       cfg%nx = nx
       cfg%ny = ny
       cfg%n = n
-      cfg%pattern = pattern
+      cfg%pattern = pattern(1:len(cfg%pattern))
       cfg%levels = levels
     case ('solver')
       method = cfg%method
@@ -522,9 +543,19 @@ contains
       max_iter = cfg%max_iter
       check_every = cfg%check_every
       nested = cfg%nested
+      call fp_traps_off(saved_halting)
       read (rec, nml=solver, iostat=ios, iomsg=msg)
+      call ieee_set_halting_mode(ieee_usual, saved_halting)
       if (ios /= 0) return
-      cfg%method = method
+      if (.not. all(ieee_is_finite([omega, tol]))) then
+        call bad_value('a finite real number', ios, msg)
+        return
+      end if
+      if (too_long(method, cfg%method)) then
+        call bad_value('a shorter string', ios, msg)
+        return
+      end if
+      cfg%method = method(1:len(cfg%method))
       cfg%omega = omega
       cfg%omega_auto = omega_auto
       cfg%tol = tol
@@ -542,10 +573,11 @@ contains
     character(len=*), intent(out) :: msg
     character(len=max_line_len + 16) :: rec(size(assign) + 2)
     logical :: enabled
-    character(len=16) :: method, ordering
+    character(len=wide) :: method, ordering
     real(dp) :: rho, tol, tol_h2
     integer :: max_iter, k
     namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering
+    logical :: saved_halting(size(ieee_usual))
     rec(1) = '&dual'
     do k = 1, size(assign)
       rec(k + 1) = assign(k)
@@ -559,15 +591,25 @@ contains
     tol_h2 = cfg%dual_tol_h2
     max_iter = cfg%dual_max_iter
     ordering = cfg%dual_ordering
+    call fp_traps_off(saved_halting)
     read (rec, nml=dual, iostat=ios, iomsg=msg)
+    call ieee_set_halting_mode(ieee_usual, saved_halting)
     if (ios /= 0) return
+    if (.not. all(ieee_is_finite([rho, tol, tol_h2]))) then
+      call bad_value('a finite real number', ios, msg)
+      return
+    end if
+    if (too_long(method, cfg%dual_method) .or. too_long(ordering, cfg%dual_ordering)) then
+      call bad_value('a shorter string', ios, msg)
+      return
+    end if
     cfg%dual_enabled = enabled
-    cfg%dual_method = method
+    cfg%dual_method = method(1:len(cfg%dual_method))
     cfg%dual_rho = rho
     cfg%dual_tol = tol
     cfg%dual_tol_h2 = tol_h2
     cfg%dual_max_iter = max_iter
-    cfg%dual_ordering = ordering
+    cfg%dual_ordering = ordering(1:len(cfg%dual_ordering))
   end subroutine read_dual_group
 
   !> Range checks of a run configuration, each naming the variable and what is expected.
@@ -627,6 +669,29 @@ contains
   end subroutine validate
 
   ! ================================================================== small helpers
+  !> Remember the halting modes of the usual IEEE exceptions and disarm them: a namelist
+  !> value such as 1e999 must give an error message, not a floating-point trap.
+  subroutine fp_traps_off(saved)
+    logical, intent(out) :: saved(:)
+    call ieee_get_halting_mode(ieee_usual, saved)
+    call ieee_set_halting_mode(ieee_usual, .false.)
+  end subroutine fp_traps_off
+
+  !> True when the value read does not fit the configuration field.
+  pure logical function too_long(value, field)
+    character(len=*), intent(in) :: value, field
+    too_long = len_trim(value) > len(field)
+  end function too_long
+
+  !> Mark the read as failed: the caller names the item and the expected value.
+  subroutine bad_value(expected, ios, msg)
+    character(len=*), intent(in) :: expected
+    integer, intent(out) :: ios
+    character(len=*), intent(out) :: msg
+    ios = -1
+    msg = 'expected ' // expected
+  end subroutine bad_value
+
   pure function expected_type(name) result(s)
     character(len=*), intent(in) :: name
     character(len=:), allocatable :: s
