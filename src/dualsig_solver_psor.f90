@@ -21,7 +21,7 @@ module dualsig_solver_psor
 
   public :: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
   public :: psor_settings_t, psor_result_t
-  public :: psor_solve, project_sor_sweep, kkt_residual, psor_plan_t, psor_plan, psor_sweep
+  public :: psor_solve, kkt_residual, psor_plan_t, psor_plan, psor_sweep
 
   integer, parameter :: BOUND_FREE = 0    !! unconstrained unknown
   integer, parameter :: BOUND_LOWER = 1   !! x_i >= bnd(i)
@@ -64,7 +64,8 @@ contains
     plan%lower = merge(bnd, -huge(1.0_dp), kind == BOUND_LOWER)
   end subroutine psor_plan
 
-  !> One projected SOR sweep with a prepared plan (same iterates as project_sor_sweep).
+  !> One projected SOR sweep with a prepared plan: x_i <- max(x_i + omega (F_i - (A x)_i) / A_ii, lower_i)
+  !> for the unknowns that are not fixed, in increasing order (the update of the module header).
   pure subroutine psor_sweep(a, f, plan, x)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: f(:)
@@ -140,28 +141,6 @@ contains
       call set_warning(st, DS_WARN_NOT_CONVERGED, trim(buf))
     end if
   end subroutine psor_solve
-
-  !> One projected SOR sweep in the natural order i = 1..n (fixed unknowns untouched).
-  pure subroutine project_sor_sweep(a, f, kind, bnd, omega, x)
-    type(csr_t), intent(in) :: a
-    real(dp), intent(in) :: f(:)
-    integer, intent(in) :: kind(:)
-    real(dp), intent(in) :: bnd(:)
-    real(dp), intent(in) :: omega
-    real(dp), intent(inout) :: x(:)
-    integer :: i, p
-    real(dp) :: r, xi
-    do i = 1, a%n
-      if (kind(i) == BOUND_FIXED) cycle
-      r = f(i)
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        r = r - a%val(p) * x(a%col(p))
-      end do
-      xi = x(i) + omega * r / a%val(a%diag(i))
-      if (kind(i) == BOUND_LOWER) xi = max(xi, bnd(i))
-      x(i) = xi
-    end do
-  end subroutine project_sor_sweep
 
   !> Relative KKT residual || r ||_2 / || F ||_2 over the unknowns that are not fixed,
   !> where g = A x - F and
