@@ -1,4 +1,5 @@
 !> Interfaces of user-supplied functions of position: source terms, exact solutions
+!> (not required to be pure: F77 callers pass ordinary EXTERNAL functions)
 !> and their gradients.  Scenes and the F77 interface supply procedures of these shapes.
 module dualsig_fields
   use dualsig_kinds, only: dp
@@ -9,13 +10,13 @@ module dualsig_fields
 
   abstract interface
     !> A scalar function of the point (x, y).
-    pure real(dp) function scalar_field(x, y)
+    real(dp) function scalar_field(x, y)
       import :: dp
       real(dp), intent(in) :: x, y
     end function scalar_field
 
     !> A vector function of the point (x, y), e.g. the gradient of an exact solution.
-    pure function vector_field(x, y) result(v)
+    function vector_field(x, y) result(v)
       import :: dp
       real(dp), intent(in) :: x, y
       real(dp) :: v(2)

@@ -378,7 +378,7 @@ contains
 
   !> lambda_bar_1 = -int_{x_start}^{x} f(t, y) dt, and an estimate err of its absolute error
   !> (including rounding); ok is set to .false. when a quadrature limit was reached.
-  recursive pure subroutine lambda_bar_1(f, x_start, x, y, val, err, ok, nbreaks, breaks)
+  recursive subroutine lambda_bar_1(f, x_start, x, y, val, err, ok, nbreaks, breaks)
     procedure(scalar_field) :: f
     real(dp), intent(in) :: x_start, x, y
     real(dp), intent(out) :: val, err
@@ -414,7 +414,7 @@ contains
 
   !> W(sigma) = omega_e(L sigma) and dW/dsigma = -L (g - g_h)(L sigma) on Gamma_a side j,
   !> omega_e(t) = -int_0^t (g - g_h) (the variant of (6.25)), integrated from the nearer end.
-  pure subroutine omega_edge(pf, mesh, f, j, sigma, w, dw, ok)
+  subroutine omega_edge(pf, mesh, f, j, sigma, w, dw, ok)
     type(particular_field_t), intent(in) :: pf
     type(mesh_t), intent(in) :: mesh
     procedure(scalar_field) :: f
@@ -440,7 +440,7 @@ contains
   !> The integrand of kind ig%kind at the abscissa s (x for INT_SOURCE_LINE, arc length from
   !> the start of the side for the edge kinds), and a bound `noise` of its absolute error
   !> (nonzero when it contains an inner integral).
-  recursive pure subroutine integrand_eval(f, ig, s, v, noise, ok)
+  recursive subroutine integrand_eval(f, ig, s, v, noise, ok)
     procedure(scalar_field) :: f
     type(integrand_t), intent(in) :: ig
     real(dp), intent(in) :: s
@@ -470,7 +470,7 @@ contains
   !> line, and the arc lengths where the side crosses x = breaks(k) for the edge kinds.
   !> Splitting at a kink keeps every piece smooth, so the adaptive rule needs no bisection
   !> cascade there.
-  recursive pure subroutine split_integral(f, ig, lo, hi, scale_in, val, abs_int, err, ok)
+  recursive subroutine split_integral(f, ig, lo, hi, scale_in, val, abs_int, err, ok)
     procedure(scalar_field) :: f
     type(integrand_t), intent(in) :: ig
     real(dp), intent(in) :: lo, hi, scale_in
@@ -526,7 +526,7 @@ contains
   !> abs_int: that 20-point estimate of int (|v_1| + |v_2|) on [lo, hi]; err: the sum of the
   !> error estimates of the accepted panels plus their rounding floors (an estimate of the
   !> error of the result); ok is set to .false. when a depth or panel limit was hit.
-  recursive pure subroutine adaptive_integral(f, ig, lo, hi, scale_in, val, abs_int, err, ok)
+  recursive subroutine adaptive_integral(f, ig, lo, hi, scale_in, val, abs_int, err, ok)
     procedure(scalar_field) :: f
     type(integrand_t), intent(in) :: ig
     real(dp), intent(in) :: lo, hi, scale_in
@@ -586,7 +586,7 @@ contains
     !> integrand at the two ends is therefore compared with the extrapolation of the
     !> 20-point interpolant; a kink at distance d <= gap from the end with slope jump J shifts
     !> the end value by about J d and the integral by J d**2 / 2 <= |shift| * gap / 2.
-    recursive pure subroutine panel(pa, pb, r_high, r_est, r_abs, r_noise, p_ok)
+    recursive subroutine panel(pa, pb, r_high, r_est, r_abs, r_noise, p_ok)
       real(dp), intent(in) :: pa, pb
       real(dp), intent(out) :: r_high(2), r_est, r_abs, r_noise
       logical, intent(inout) :: p_ok
