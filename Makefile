@@ -5,6 +5,7 @@
 #   make check      install missing Debian packages, build the debug library, run the test suite
 #   make check-asan the same suite under Address/UndefinedBehavior/LeakSanitizer
 #   make bench      benchmarks (see README, "Benchmarks")
+#   make stress     the numerical stability stress suite (see README, "Stress suite")
 #   make BUILD=debug        the checked build (-fcheck=all, FPE traps) into build/debug
 #   make FFLAGS='...'       override the compiler flags
 #   make check PFUNIT_DIR=/path/to/pfunit/installed/PFUNIT-4.x   run the suite with real pFUnit
@@ -33,8 +34,10 @@ ifeq ($(origin FFLAGS),undefined)
 endif
 LIBS ?= -lcholmod -lsuitesparseconfig -llapack -lblas
 
-# Debian packages the project needs (build, run and test).
-DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libmetis-dev python3
+# Debian packages the project needs (build, run and test).  python3-meshio (0.4 MB with its
+# dependencies) lets test/check_vtu.py read the ParaView files with a real VTK reader.
+DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libmetis-dev python3 pkg-config \
+                   python3-meshio
 
 BLD  := build/$(BUILD)
 SRCS := $(sort $(wildcard src/*.f90))
@@ -53,7 +56,7 @@ endif
 LIBRARY := $(LIBDIR)/libdualsig.a
 DRIVER  := $(BINDIR)/dualsig
 
-.PHONY: all lib run check check-lite check-asan deps bench bench-quick bench-plots bench-peers bench-deps clean distclean
+.PHONY: all lib run check check-lite check-asan deps bench bench-quick bench-plots bench-peers bench-deps plots stress clean distclean
 all: $(LIBRARY) $(DRIVER)
 lib: $(LIBRARY)
 
@@ -177,6 +180,17 @@ bench-plots:
 	  echo "dualsig: plots written to out/work_precision.png and out/scaling.png"; \
 	else echo "dualsig: gnuplot not installed: no plots"; fi
 
+# make plots   convergence and work-precision plots of the manufactured runs (bench/plots.gp):
+#              runs data/p2_square.nml and data/p1_square.nml when their CSV tables are missing,
+#              writes out/convergence.png and out/work_precision_runs.png and copies them to doc/
+PLOT_PNGS := out/convergence.png out/work_precision_runs.png
+plots: bench-deps
+	@$(MAKE) all
+	@for r in p2_square p1_square; do [ -f out/$$r.csv ] || ./$(DRIVER) data/$$r.nml || [ $$? -eq 3 ] || exit 1; done
+	@if command -v gnuplot >/dev/null; then gnuplot bench/plots.gp && cp $(PLOT_PNGS) doc/ && \
+	  echo "dualsig: plots written to $(PLOT_PNGS) and copied to doc/"; \
+	else echo "dualsig: gnuplot not installed: no plots"; exit 1; fi
+
 # PETSc is optional: installed here when possible (python3-petsc4py: about 150 MB with MPI),
 # otherwise the script prints that it is skipped.  Needs the QP exports of `make bench`.
 PEER_PACKAGES := python3-petsc4py
@@ -192,6 +206,81 @@ bench-peers:
 bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) | bin
 	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
 
+# ---------------------------------------------------------------- stress suite
+# make stress   the numerical stability stress cases (see README, "Stress suite"), 2-5 minutes;
+#               tables out/stress.txt and out/stress.md; exit status 1 if a case FAILs.
+#               STRESS_OPTIONS='--max-level 9' bounds the largest mesh (default level 10, ~1e6 unknowns)
+STRESS_OPTIONS ?=
+stress: deps
+	@$(MAKE) all
+	@$(MAKE) -s bin/dualsig_stress
+	@./bin/dualsig_stress $(STRESS_OPTIONS)
+
+bin/dualsig_stress: drivers/dualsig_stress.f90 $(LIBRARY) | bin
+	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
+
+# ---------------------------------------------------------------- install
+# make install [PREFIX=/usr/local] [DESTDIR=]   the release library (built first), its module
+#   files and a pkg-config file; DESTDIR stages the tree (dualsig.pc still names PREFIX):
+#     $(PREFIX)/lib/libdualsig.a
+#     $(PREFIX)/include/dualsig/<module>.mod     (one per module of src/)
+#     $(PREFIX)/lib/pkgconfig/dualsig.pc
+# make uninstall [PREFIX=...] [DESTDIR=]        removes exactly these files (the list is
+#   computed from src/ as for install) and include/dualsig when it is left empty.
+PREFIX ?= /usr/local
+DESTDIR ?=
+DUALSIG_VERSION ?= 0.1.0
+# module names declared in src/ ("module NAME" lines; gfortran writes name.mod in lower case)
+INSTALL_MODULES = $(sort $(shell sed -n 's/^ *[Mm][Oo][Dd][Uu][Ll][Ee]  *\([A-Za-z0-9_]*\) *$$/\1/p' $(SRCS) | tr A-Z a-z))
+INSTALL_LIB_DIR = $(DESTDIR)$(PREFIX)/lib
+INSTALL_MOD_DIR = $(DESTDIR)$(PREFIX)/include/dualsig
+INSTALL_PC_DIR  = $(DESTDIR)$(PREFIX)/lib/pkgconfig
+
+.PHONY: install uninstall install-check-prefix
+install-check-prefix:
+	@case "$(PREFIX)" in /*) ;; *) echo "dualsig: PREFIX must be an absolute path, got '$(PREFIX)'"; exit 1;; esac
+
+install: install-check-prefix
+	@# the file target, not the phony 'lib' (which clashes with the directory lib/ of BUILD=release)
+	@$(MAKE) BUILD=release lib/libdualsig.a
+	@install -d "$(INSTALL_LIB_DIR)" "$(INSTALL_MOD_DIR)" "$(INSTALL_PC_DIR)"
+	@install -m 644 lib/libdualsig.a "$(INSTALL_LIB_DIR)/libdualsig.a"
+	@install -m 644 $(patsubst %,include/%.mod,$(INSTALL_MODULES)) "$(INSTALL_MOD_DIR)/"
+	@printf '%s\n' 'prefix=$(PREFIX)' 'exec_prefix=$${prefix}' 'libdir=$${exec_prefix}/lib' \
+	  'includedir=$${prefix}/include/dualsig' '' 'Name: dualsig' \
+	  'Description: Dual finite element analysis of scalar Signorini problems (Fortran; F77 entry points DSBQP, DSSIGN)' \
+	  'Version: $(DUALSIG_VERSION)' 'Cflags: -I$${includedir}' 'Libs: -L$${libdir} -ldualsig' \
+	  'Libs.private: $(LIBS) -lgfortran -lm' > "$(INSTALL_PC_DIR)/dualsig.pc.part"
+	@mv "$(INSTALL_PC_DIR)/dualsig.pc.part" "$(INSTALL_PC_DIR)/dualsig.pc"
+	@echo "dualsig: installed into $(DESTDIR)$(PREFIX): lib/libdualsig.a, lib/pkgconfig/dualsig.pc, $(words $(INSTALL_MODULES)) module files in include/dualsig"
+
+uninstall: install-check-prefix
+	@rm -f "$(INSTALL_LIB_DIR)/libdualsig.a" "$(INSTALL_PC_DIR)/dualsig.pc" \
+	  $(patsubst %,"$(INSTALL_MOD_DIR)/%.mod",$(INSTALL_MODULES))
+	@echo "dualsig: removed from $(DESTDIR)$(PREFIX): lib/libdualsig.a, lib/pkgconfig/dualsig.pc, $(words $(INSTALL_MODULES)) module files in include/dualsig"
+	@if [ -d "$(INSTALL_MOD_DIR)" ]; then rmdir "$(INSTALL_MOD_DIR)" 2>/dev/null || \
+	  echo "dualsig: $(INSTALL_MOD_DIR) is not empty (files dualsig did not install): kept"; fi
+
 clean:
 	rm -rf build lib include bin
 distclean: clean
+
+# ---------------------------------------------------------------- Gmsh data meshes
+# make meshes   regenerate data/*_v2.msh (MSH 2.2) and data/*_v4.msh (MSH 4.1) from data/*.geo
+#               with gmsh (Debian package gmsh, installed here when missing and run as root)
+MESH_GEOS := plate_hole graded_corner
+.PHONY: meshes
+meshes:
+	@if ! command -v gmsh >/dev/null; then \
+	  if [ "$$(id -u)" != 0 ]; then \
+	    echo "dualsig: gmsh missing; run as root:  apt-get install -y --no-install-recommends gmsh"; exit 1; fi; \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends gmsh >/dev/null || { \
+	    echo "dualsig: apt-get install failed for: gmsh"; exit 1; }; \
+	fi
+	@cd data && for g in $(MESH_GEOS); do \
+	  gmsh -2 -format msh22 $$g.geo -o $${g}_v2.msh.tmp >/dev/null && \
+	  gmsh -2 -format msh41 $$g.geo -o $${g}_v4.msh.tmp >/dev/null || { \
+	    rm -f $${g}_v2.msh.tmp $${g}_v4.msh.tmp; echo "dualsig: gmsh failed on data/$$g.geo"; exit 1; }; \
+	  mv $${g}_v2.msh.tmp $${g}_v2.msh && mv $${g}_v4.msh.tmp $${g}_v4.msh; \
+	  echo "dualsig: data/$${g}_v2.msh and data/$${g}_v4.msh written"; \
+	done

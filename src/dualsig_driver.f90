@@ -9,11 +9,13 @@ module dualsig_driver
   use, intrinsic :: iso_fortran_env, only: int64, output_unit
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
-                            DS_WARN_NOT_CONVERGED
+                            DS_WARN_NOT_CONVERGED, DS_ERR_IO
   use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter
   use dualsig_mesh_generate, only: mesh_rectangle, mesh_lshape, mesh_holed_square
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
-  use dualsig_mesh_io, only: mesh_read_text
+  use dualsig_mesh_io, only: mesh_read_text, mesh_note_len
+  use dualsig_mesh_gmsh, only: gmsh_physical_t, mesh_read_gmsh, gmsh_markers_from_names
+  use dualsig_mesh_triangle, only: mesh_read_triangle, triangle_base_name
   use dualsig_mesh_quality, only: mesh_quality_t, mesh_quality, mesh_quality_report
   use dualsig_quadrature, only: tri_rule_t, tri_rule
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, BOUND_FIXED
@@ -25,6 +27,7 @@ module dualsig_driver
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve
+  use dualsig_problem_dual_p2, only: dual_p2_lambda
   use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_error
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL
@@ -32,6 +35,9 @@ module dualsig_driver
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
                               table_write_text, table_write_csv, table_format_row, &
                               table_format_header, observed_rate
+  use dualsig_io_table, only: table_write_latex
+  use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_commit_run, &
+                            vtk_discard_run, vtk_level_path, vtk_contact_status
   use dualsig_strings, only: itoa, rtoa
   use dualsig_io_files, only: file_commit, file_delete, temp_name, ensure_parent_dir
   implicit none
@@ -54,6 +60,9 @@ module dualsig_driver
   real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
   !> The exact solutions of the catalogue live on the unit square; bounding-box tolerance.
   real(dp), parameter :: domain_tol = 1.0e-12_dp
+  !> ParaView output: a Signorini node is shown in contact when u_h - obstacle <= this
+  !> times max|u_h| (the solvers put contact nodes on the obstacle; this absorbs rounding).
+  real(dp), parameter :: contact_rel_tol = 1.0e-12_dp
 
   !> Columns of the error table ('#' marks integer columns).
   character(len=16), parameter :: primal_columns(10) = [character(len=16) :: &
@@ -80,6 +89,11 @@ contains
     if (present(unit)) out = unit
     call read_config_file(path, runs, st)
     if (st%code /= 0) return
+    ! every run's output must be writable before anything is computed
+    do r = 1, size(runs)
+      call check_output_writable(runs(r), st)
+      if (st%code /= 0) return
+    end do
     do r = 1, size(runs)
       call run_one(runs(r), st_run, out)
       if (.not. is_ok(st_run)) then
@@ -90,9 +104,21 @@ contains
     end do
   end subroutine run_namelist_file
 
-  !> One run: build the coarse mesh, then for each level refine, assemble, solve, measure
-  !> the errors and append a row; finally write `<output>.txt` and `<output>.csv`.
+  !> One run (run_levels); a failed run leaves none of its files, not even the temporary
+  !> .vtu files written level by level.
   subroutine run_one(cfg, st, unit, table)
+    type(run_config_t), intent(in) :: cfg
+    type(status_t), intent(out) :: st
+    integer, intent(in) :: unit
+    type(table_t), intent(out), optional :: table
+    call run_levels(cfg, st, unit, table)
+    if (.not. is_ok(st) .and. cfg%vtk) call vtk_discard_run(cfg%output, cfg%levels)
+  end subroutine run_one
+
+  !> One run: build the coarse mesh, then for each level refine, assemble, solve, measure
+  !> the errors and append a row; finally write `<output>.txt` and `<output>.csv` (and, on
+  !> request, `<output>.tex`, one `<output>_levelLL.vtu` per level and `<output>.pvd`).
+  subroutine run_levels(cfg, st, unit, table)
     type(run_config_t), intent(in) :: cfg
     type(status_t), intent(out) :: st
     integer, intent(in) :: unit
@@ -121,9 +147,18 @@ contains
     character(len=300), allocatable :: header(:)
     character(len=:), allocatable :: txt_path, csv_path, norm_name, matrices, parts, title
     character(len=300) :: line
+    type(vtk_fields_t) :: vfields
+    character(len=:), allocatable :: tex_path
+    type(gmsh_physical_t) :: phys                     ! physical names of a Gmsh mesh
+    character(len=mesh_note_len), allocatable :: mesh_notes(:)
+    character(len=:), allocatable :: mesh_format, tri_base
+    logical :: is_triangle, by_names
+    integer :: inote
 
     title = trim(cfg%title)
     if (len(title) == 0) title = trim(cfg%output)
+    call check_output_writable(cfg, st)
+    if (st%code /= 0) return
     call scene_lookup(cfg%scene, scene, st)
     if (st%code /= 0) then
       st%msg = cfg%source_file // ': &run scene: ' // st%msg
@@ -147,11 +182,56 @@ contains
     case ('holed_square')
       call mesh_holed_square(mesh, cfg%n, st)
     case ('file')
-      call mesh_read_text(cfg%mesh_file, mesh, st, nflip)
+      ! format 'auto': a name ending in .msh is Gmsh; a Triangle file (.node, .ele, .poly, .edge)
+      ! or a base name with .node and .ele files is Triangle; anything else the dualsig format
+      mesh_format = trim(cfg%mesh_format)
+      if (mesh_format == 'auto') then
+        call triangle_base_name(trim(cfg%mesh_file), tri_base, is_triangle)
+        mesh_format = trim(merge('triangle', 'dualsig ', is_triangle))
+        if (len_trim(cfg%mesh_file) > len('.msh')) then
+          if (cfg%mesh_file(len_trim(cfg%mesh_file) - 3:len_trim(cfg%mesh_file)) == '.msh') mesh_format = 'gmsh'
+        end if
+      end if
+      select case (mesh_format)
+      case ('gmsh')
+        call mesh_read_gmsh(trim(cfg%mesh_file), mesh, phys, st, nflip, mesh_notes)
+      case ('triangle')
+        call mesh_read_triangle(trim(cfg%mesh_file), mesh, st, nflip, mesh_notes)
+      case default
+        call mesh_read_text(trim(cfg%mesh_file), mesh, st, nflip)
+      end select
+      if (allocated(mesh_notes)) then
+        do inote = 1, size(mesh_notes)
+          write (unit, '(a)') "note: mesh file '" // trim(cfg%mesh_file) // "': " // trim(mesh_notes(inote))
+        end do
+      end if
     end select
-    if (st%code /= 0) return
-    if (nflip > 0) write (unit, '(a,i0,a)') 'warning: ', nflip, ' clockwise triangles of ' // &
-      trim(cfg%mesh_file) // ' were reoriented'
+    if (st%code /= 0) then
+      st%msg = cfg%source_file // ': run of line ' // itoa(cfg%line) // ', &mesh: ' // st%msg
+      return
+    end if
+    if (nflip > 0) write (unit, '(a,i0,a)') "warning: mesh file '" // trim(cfg%mesh_file) // "': ", nflip, &
+      ' clockwise triangle(s) reoriented (expected counter-clockwise vertices; n2 and n3 swapped)'
+    ! boundary parts by Gmsh physical-curve name: the markers are the physical tags
+    by_names = any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')
+    if (by_names) then
+      call gmsh_markers_from_names(phys, cfg%gamma_u_names, '&run gamma_u_names', trim(cfg%mesh_file), gamma_u, st)
+      if (st%code == 0) call gmsh_markers_from_names(phys, cfg%gamma_a_names, '&run gamma_a_names', &
+                                                     trim(cfg%mesh_file), gamma_a, st)
+      if (st%code /= 0) then
+        st%msg = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': ' // st%msg
+        return
+      end if
+      line = 'boundary by name: Gamma_u markers'
+      do inote = 1, size(gamma_u)
+        if (gamma_u(inote) /= 0) line = trim(line) // ' ' // itoa(gamma_u(inote))
+      end do
+      line = trim(line) // ', Gamma_a markers'
+      do inote = 1, size(gamma_a)
+        if (gamma_a(inote) /= 0) line = trim(line) // ' ' // itoa(gamma_a(inote))
+      end do
+      write (unit, '(a)') trim(line)
+    end if
     if (scene%has_exact .and. scene%domain == 'unit_square') then
       if (abs(minval(mesh%xy(1, :))) > domain_tol .or. abs(maxval(mesh%xy(1, :)) - 1.0_dp) > domain_tol &
           .or. abs(minval(mesh%xy(2, :))) > domain_tol .or. abs(maxval(mesh%xy(2, :)) - 1.0_dp) > domain_tol) then
@@ -232,7 +312,8 @@ contains
       end if
       h = mesh_h(mesh)
       call primal_assemble(mesh, scene%problem, scene%f, load_rule, sys)
-      call primal_constraints(mesh, scene%problem, gamma_u, gamma_a, sys%kind, sys%bnd, st)
+      call primal_constraints(mesh, scene%problem, gamma_u, gamma_a, sys%kind, sys%bnd, st, &
+                              every_loop_gamma_u=cfg%dual_enabled .and. scene%problem /= PROBLEM_P1)
       if (st%code /= 0) then
         st%msg = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': ' // st%msg
         return
@@ -297,6 +378,8 @@ contains
         end if
         if (.not. is_ok(st)) return
       end if
+      if (cfg%vtk) call vtk_level()
+      if (.not. is_ok(st)) return
       write (unit, '(a)') table_format_row(tab, level)
       flush (unit)
     end do
@@ -356,10 +439,12 @@ contains
       end if
     end if
     resolved = cfg
-    resolved%gamma_u_markers = 0
-    resolved%gamma_a_markers = 0
-    resolved%gamma_u_markers(1:size(gamma_u)) = gamma_u
-    resolved%gamma_a_markers(1:size(gamma_a)) = gamma_a
+    if (.not. by_names) then                       ! by name: the echo keeps the names
+      resolved%gamma_u_markers = 0
+      resolved%gamma_a_markers = 0
+      resolved%gamma_u_markers(1:size(gamma_u)) = gamma_u
+      resolved%gamma_a_markers(1:size(gamma_a)) = gamma_a
+    end if
     header = [header, config_echo(resolved)]
     if (nonconverged > 0) then
       write (line, '(a,i0,a)') 'WARNING: ', nonconverged, ' level(s) stopped at max_iter (see kkt_residual)'
@@ -372,14 +457,29 @@ contains
       call file_delete(temp_name(txt_path))
       return
     end if
-    call file_commit(txt_path, st)
-    if (st%code == 0) call file_commit(csv_path, st)
+    tex_path = trim(cfg%output) // '.tex'
+    if (cfg%latex) call table_write_latex(tab, tex_path, title, st)
+    if (st%code == 0 .and. cfg%vtk) call vtk_write_collection(cfg%output, cfg%levels, st)
     if (st%code /= 0) then
       call file_delete(temp_name(txt_path))
       call file_delete(temp_name(csv_path))
+      call file_delete(temp_name(tex_path))
+      return
+    end if
+    call file_commit(txt_path, st)
+    if (st%code == 0) call file_commit(csv_path, st)
+    if (st%code == 0 .and. cfg%latex) call file_commit(tex_path, st)
+    if (st%code == 0 .and. cfg%vtk) call vtk_commit_run(cfg%output, cfg%levels, st)
+    if (st%code /= 0) then
+      call file_delete(temp_name(txt_path))
+      call file_delete(temp_name(csv_path))
+      call file_delete(temp_name(tex_path))
       return
     end if
     write (unit, '(a)') 'dualsig: table written to ' // txt_path // ' and ' // csv_path
+    if (cfg%latex) write (unit, '(a)') 'dualsig: LaTeX table written to ' // tex_path
+    if (cfg%vtk) write (unit, '(a)') 'dualsig: ParaView files written: ' // trim(cfg%output) // &
+      '.pvd and ' // itoa(cfg%levels) // ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu'
     if (nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &
       itoa(nonconverged) // ' level(s) of run "' // trim(cfg%title) // '" did not converge')
     if (present(table)) table = tab
@@ -401,6 +501,12 @@ contains
       call take_status(st_dual, stop_run)
       if (stop_run) return
       call dual_p1_bounds(mesh, u, q, scene%f, bound_rule, bounds, scene%x_breaks(1:scene%nbreaks))
+      if (cfg%vtk) then
+        vfields%q_h = reshape(q, [2, mesh%nnode])
+        vfields%est_element = bounds%est_elem
+        vfields%est = bounds%est
+        vfields%has_est = .true.
+      end if
       call table_set(tab, 'dual_iters', real(dres%iterations, dp))
       call table_set(tab, 'dual_s', t0)
       call table_set(tab, 'est', bounds%est)
@@ -431,7 +537,7 @@ contains
       type(dual_p2_bounds_t) :: bounds
       type(status_t) :: st_dual
       logical, allocatable :: is_gamma_a(:)
-      integer :: j
+      integer :: j, i
       real(dp) :: t0
       allocate (is_gamma_a(mesh%nbedge))
       do j = 1, mesh%nbedge
@@ -451,6 +557,20 @@ contains
           ' (plain Uzawa stops on its own residual; method = ''augmented'' is admissible to rounding)'
       end if
       call dual_p2_bounds(mesh, u, field, scene%f, is_gamma_a, bound_rule_p2, bounds)
+      if (cfg%vtk) then
+        ! lambda^h at the centroid and, from inside the triangle, at its three vertices
+        allocate (vfields%lambda_centroid(2, mesh%ntri), vfields%lambda_vertices(6, mesh%ntri))
+        do j = 1, mesh%ntri
+          vfields%lambda_centroid(:, j) = dual_p2_lambda(field, mesh, scene%f, j, [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp)
+          do i = 1, 3
+            vfields%lambda_vertices(2 * i - 1:2 * i, j) = dual_p2_lambda(field, mesh, scene%f, j, &
+              merge(1.0_dp, 0.0_dp, [1, 2, 3] == i))
+          end do
+        end do
+        vfields%est_element = bounds%est_elem
+        vfields%est = bounds%est
+        vfields%has_est = .true.
+      end if
       call table_set(tab, 'dual_iters', real(dres%iterations, dp))
       call table_set(tab, 'dual_s', t0)
       call table_set(tab, 'est', bounds%est)
@@ -468,6 +588,17 @@ contains
       if (dual_method == 'augmented') write (unit, '(a,es10.3,a,a)') '    penalty r = ', dres%penalty, &
         ', ordering ', trim(dres%ordering)
     end subroutine dual_level_p2
+
+    !> Write the .vtu of the current level under its temporary name (committed with the
+    !> tables at the end of the run): u_h, the exact u, the contact status and the dual
+    !> fields and estimator contributions collected by dual_level_p1/p2 in vfields.
+    subroutine vtk_level()
+      integer :: i
+      if (scene%has_exact) vfields%u_exact = [(scene%u(mesh%xy(1, i), mesh%xy(2, i)), i=1, mesh%nnode)]
+      vfields%contact = vtk_contact_status(sys%kind, sys%bnd, u, contact_rel_tol)
+      call vtk_write_level(vtk_level_path(cfg%output, level), mesh, level, h, u, vfields, st)
+      vfields = vtk_fields_t()
+    end subroutine vtk_level
 
     !> Take over the status of a step of the current level: an error becomes the run's error
     !> (stop_run), a warning is counted and printed.
@@ -495,7 +626,52 @@ contains
       call observed_rate(table_value(tab, level - 1, name), value, table_value(tab, level - 1, 'h'), h, r, ok_r)
       if (ok_r) call table_set(tab, rate_name, r)
     end subroutine set_with_rate
-  end subroutine run_one
+  end subroutine run_levels
+
+  !> Fail early, before any computation, when the tables of run `cfg` cannot be written:
+  !> create the output's directory (like mkdir -p), refuse an output whose table name is a
+  !> directory, and create and delete the temporary file of the text table there.  Errors
+  !> name the namelist file, the &run output item and the directory.
+  subroutine check_output_writable(cfg, st)
+    type(run_config_t), intent(in) :: cfg
+    type(status_t), intent(out) :: st
+    character(len=:), allocatable :: txt_path, dir, where
+    character(len=256) :: iom
+    integer :: u, ios, k
+    logical :: is_dir
+    txt_path = trim(cfg%output) // '.txt'
+    k = index(txt_path, '/', back=.true.)
+    if (k == 0) then
+      dir = '.'
+    else if (k == 1) then
+      dir = '/'
+    else
+      dir = txt_path(1:k - 1)
+    end if
+    where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ": &run output = '" // &
+      trim(cfg%output) // "': "
+    call ensure_parent_dir(txt_path, st)
+    if (st%code /= 0) then
+      st%msg = where // st%msg // " (expected a writable directory '" // dir // "' or one that can be created)"
+      return
+    end if
+    do k = 1, 2
+      inquire (file=trim(cfg%output) // merge('.txt/.', '.csv/.', k == 1), exist=is_dir)
+      if (is_dir) then
+        call set_error(st, DS_ERR_IO, where // trim(cfg%output) // merge('.txt', '.csv', k == 1) // &
+          ' is a directory (expected a path for the table files, without extension)')
+        return
+      end if
+    end do
+    iom = ''
+    open (newunit=u, file=temp_name(txt_path), status='replace', action='write', iostat=ios, iomsg=iom)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, where // "cannot create files in the directory '" // dir // "' (" // &
+        trim(iom) // '; expected a writable directory)')
+      return
+    end if
+    close (u, status='delete', iostat=ios)
+  end subroutine check_output_writable
 
   !> Wall-clock seconds from an arbitrary origin.
   real(dp) function wall_seconds()

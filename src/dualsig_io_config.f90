@@ -25,11 +25,12 @@ module dualsig_io_config
   integer, parameter :: max_line_len = 1024     !! longest accepted line of a namelist file
   integer, parameter :: max_levels = 14         !! largest accepted number of mesh levels
   integer, parameter :: wide = 512              !! string length for reading (longer values are rejected)
+  integer, parameter :: marker_name_len = 64    !! longest physical-group name in gamma_u/a_names
 
   character(len=*), parameter :: run_items = &
-    'title scene output gamma_u_markers gamma_a_markers'
+    'title scene output gamma_u_markers gamma_a_markers vtk latex gamma_u_names gamma_a_names'
   character(len=*), parameter :: mesh_items = &
-    'source file x0 x1 y0 y1 nx ny n pattern levels'
+    'source file x0 x1 y0 y1 nx ny n pattern levels format'
   character(len=*), parameter :: solver_items = &
     'method omega omega_auto tol max_iter check_every nested'
   character(len=*), parameter :: dual_items = &
@@ -44,9 +45,15 @@ module dualsig_io_config
     character(len=256) :: output = 'out/dualsig'
     integer :: gamma_u_markers(max_markers) = 0    !! all 0: the scene's default
     integer :: gamma_a_markers(max_markers) = 0    !! all 0: the scene's default
+    !> Gmsh physical curve names forming Gamma_u / Gamma_a (instead of the marker lists; '' = unused)
+    character(len=marker_name_len) :: gamma_u_names(max_markers) = ''
+    character(len=marker_name_len) :: gamma_a_names(max_markers) = ''
+    logical :: vtk = .false.                       !! write <output>_levelLL.vtu and <output>.pvd
+    logical :: latex = .false.                     !! write the error table also as <output>.tex
     ! &mesh
     character(len=16) :: mesh_source = 'rectangle'
     character(len=256) :: mesh_file = ''
+    character(len=16) :: mesh_format = 'auto'     !! auto, dualsig, gmsh or triangle
     real(dp) :: x0 = 0.0_dp, x1 = 1.0_dp, y0 = 0.0_dp, y1 = 1.0_dp
     integer :: nx = 2, ny = 2, n = 1
     character(len=16) :: pattern = 'right'
@@ -138,7 +145,8 @@ contains
         end if
       case default
         call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
-          ': unknown namelist group &' // trim(groups(g)%name) // '; expected &run, &mesh, &solver or &dual')
+          ': unknown namelist group &' // trim(groups(g)%name) // &
+          did_you_mean(groups(g)%name, 'run mesh solver dual', '&') // '; expected &run, &mesh, &solver or &dual')
         return
       end select
       if (st%code /= 0) return
@@ -156,9 +164,11 @@ contains
     allocate (lines(4))
     lines(1) = '&run title = ''' // trim(cfg%title) // ''', scene = ''' // trim(cfg%scene) // &
       ''', output = ''' // trim(cfg%output) // ''', gamma_u_markers = ' // ilist(cfg%gamma_u_markers) // &
-      ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ' /'
+      ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ', vtk = ' // ltoa(cfg%vtk) // &
+      ', latex = ' // ltoa(cfg%latex) // ' /'
     lines(2) = '&mesh source = ''' // trim(cfg%mesh_source) // ''', file = ''' // trim(cfg%mesh_file) // &
-      ''', x0 = ' // rtoa(cfg%x0) // ', x1 = ' // rtoa(cfg%x1) // ', y0 = ' // rtoa(cfg%y0) // &
+      ''', format = ''' // trim(cfg%mesh_format) // ''', x0 = ' // rtoa(cfg%x0) // ', x1 = ' // rtoa(cfg%x1) // &
+      ', y0 = ' // rtoa(cfg%y0) // &
       ', y1 = ' // rtoa(cfg%y1) // ', nx = ' // itoa(cfg%nx) // ', ny = ' // itoa(cfg%ny) // &
       ', n = ' // itoa(cfg%n) // ', pattern = ''' // trim(cfg%pattern) // ''', levels = ' // &
       itoa(cfg%levels) // ' /'
@@ -170,6 +180,12 @@ contains
       ''', rho = ' // rtoa(cfg%dual_rho) // ', tol = ' // rtoa(cfg%dual_tol) // ', tol_h2 = ' // &
       rtoa(cfg%dual_tol_h2) // ', max_iter = ' // itoa(cfg%dual_max_iter) // ', ordering = ''' // &
       trim(cfg%dual_ordering) // ''' /'
+    if (any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) then
+      ! the names continue the &run group on a line of their own
+      lines(1) = lines(1)(1:len_trim(lines(1)) - 2)
+      lines = [character(len=300) :: lines(1), '     gamma_u_names = ' // slist(cfg%gamma_u_names) // &
+        ', gamma_a_names = ' // slist(cfg%gamma_a_names) // ' /', lines(2:)]
+    end if
   end function config_echo
 
   ! ================================================================== reading
@@ -325,7 +341,8 @@ contains
       name = assignment_name(assign(a))
       if (index(' ' // items // ' ', ' ' // trim(name) // ' ') == 0) then
         call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(grp%name) // ', line ' // &
-          itoa(assign_line(a)) // ': unknown variable "' // trim(name) // '"; expected one of: ' // items)
+          itoa(assign_line(a)) // ': unknown variable "' // trim(name) // '"' // did_you_mean(name, items, '') // &
+          '; expected one of: ' // items)
         return
       end if
     end do
@@ -451,9 +468,11 @@ contains
     character(len=wide) :: scene
     character(len=wide) :: output
     integer :: gamma_u_markers(max_markers), gamma_a_markers(max_markers)
+    logical :: vtk, latex
+    character(len=wide) :: gamma_u_names(max_markers), gamma_a_names(max_markers)
     ! &mesh
     character(len=wide) :: source, pattern
-    character(len=wide) :: file
+    character(len=wide) :: file, format
     real(dp) :: x0, x1, y0, y1
     integer :: nx, ny, n, levels
     ! &solver
@@ -461,8 +480,8 @@ contains
     real(dp) :: omega, tol
     logical :: omega_auto, nested
     integer :: max_iter, check_every
-    namelist /run/ title, scene, output, gamma_u_markers, gamma_a_markers
-    namelist /mesh/ source, file, x0, x1, y0, y1, nx, ny, n, pattern, levels
+    namelist /run/ title, scene, output, gamma_u_markers, gamma_a_markers, vtk, latex, gamma_u_names, gamma_a_names
+    namelist /mesh/ source, file, format, x0, x1, y0, y1, nx, ny, n, pattern, levels
     namelist /solver/ method, omega, omega_auto, tol, max_iter, check_every, nested
     integer :: k
     logical :: saved_halting(size(ieee_usual))
@@ -486,6 +505,10 @@ contains
       output = cfg%output
       gamma_u_markers = cfg%gamma_u_markers
       gamma_a_markers = cfg%gamma_a_markers
+      vtk = cfg%vtk
+      latex = cfg%latex
+      gamma_u_names = cfg%gamma_u_names
+      gamma_a_names = cfg%gamma_a_names
       call fp_traps_off(saved_halting)
       read (rec, nml=run, iostat=ios, iomsg=msg)
       call ieee_set_halting_mode(ieee_usual, saved_halting)
@@ -494,14 +517,27 @@ contains
         call bad_value('a shorter string', ios, msg)
         return
       end if
+      do k = 1, max_markers
+        if (too_long(gamma_u_names(k), cfg%gamma_u_names(k)) .or. too_long(gamma_a_names(k), cfg%gamma_a_names(k))) then
+          call bad_value('names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
+          return
+        end if
+      end do
+      do k = 1, max_markers
+        cfg%gamma_u_names(k) = gamma_u_names(k)(1:marker_name_len)
+        cfg%gamma_a_names(k) = gamma_a_names(k)(1:marker_name_len)
+      end do
       cfg%title = title(1:len(cfg%title))
       cfg%scene = scene(1:len(cfg%scene))
       cfg%output = output(1:len(cfg%output))
       cfg%gamma_u_markers = gamma_u_markers
       cfg%gamma_a_markers = gamma_a_markers
+      cfg%vtk = vtk
+      cfg%latex = latex
     case ('mesh')
       source = cfg%mesh_source
       file = cfg%mesh_file
+      format = cfg%mesh_format
       x0 = cfg%x0
       x1 = cfg%x1
       y0 = cfg%y0
@@ -520,12 +556,13 @@ contains
         return
       end if
       if (too_long(source, cfg%mesh_source) .or. too_long(pattern, cfg%pattern) .or. &
-          too_long(file, cfg%mesh_file)) then
+          too_long(file, cfg%mesh_file) .or. too_long(format, cfg%mesh_format)) then
         call bad_value('a shorter string', ios, msg)
         return
       end if
       cfg%mesh_source = source(1:len(cfg%mesh_source))
       cfg%mesh_file = file(1:len(cfg%mesh_file))
+      cfg%mesh_format = format(1:len(cfg%mesh_format))
       cfg%x0 = x0
       cfg%x1 = x1
       cfg%y0 = y0
@@ -620,6 +657,9 @@ contains
     where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': '
     if (len_trim(cfg%output) == 0) then
       call set_error(st, DS_ERR_INPUT, where // '&run output must name the output files (no extension)')
+    else if (cfg%output(len_trim(cfg%output):len_trim(cfg%output)) == '/') then
+      call set_error(st, DS_ERR_INPUT, where // '&run output = ''' // trim(cfg%output) // &
+        ''' names a directory; expected a path of the table files without extension, e.g. ''out/run1''')
     else if (any(cfg%gamma_u_markers < 0) .or. any(cfg%gamma_a_markers < 0)) then
       call set_error(st, DS_ERR_INPUT, where // '&run gamma_u_markers / gamma_a_markers must be > 0')
     else if (.not. any(cfg%mesh_source == [character(len=16) :: 'rectangle', 'lshape', 'holed_square', 'file'])) then
@@ -627,6 +667,17 @@ contains
         '"; expected rectangle, lshape, holed_square or file')
     else if (cfg%mesh_source == 'file' .and. len_trim(cfg%mesh_file) == 0) then
       call set_error(st, DS_ERR_INPUT, where // '&mesh file must be given when source = ''file''')
+    else if (.not. any(cfg%mesh_format == [character(len=16) :: 'auto', 'dualsig', 'gmsh', 'triangle'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh format = "' // trim(cfg%mesh_format) // &
+        '"; expected auto, dualsig, gmsh or triangle')
+    else if ((any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) .and. &
+             (any(cfg%gamma_u_markers /= 0) .or. any(cfg%gamma_a_markers /= 0))) then
+      call set_error(st, DS_ERR_INPUT, where // '&run gamma_u_names / gamma_a_names and gamma_u_markers / ' // &
+        'gamma_a_markers are mutually exclusive; expected the boundary parts either by name or by marker')
+    else if ((any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) .and. cfg%mesh_source /= 'file') then
+      call set_error(st, DS_ERR_INPUT, where // '&run gamma_u_names / gamma_a_names name Gmsh physical ' // &
+        'curves; expected &mesh source = ''file'' with a Gmsh mesh (source = ''' // trim(cfg%mesh_source) // &
+        ''' has numbered markers only)')
     else if (cfg%levels < 1 .or. cfg%levels > max_levels) then
       call set_error(st, DS_ERR_INPUT, where // '&mesh levels = ' // itoa(cfg%levels) // &
         '; expected 1 to ' // itoa(max_levels))
@@ -700,8 +751,12 @@ contains
       s = 'a quoted string'
     case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2')
       s = 'a real number'
-    case ('omega_auto', 'nested', 'enabled')
+    case ('omega_auto', 'nested', 'enabled', 'vtk', 'latex')
       s = 'a logical, .true. or .false.'
+    case ('gamma_u_names', 'gamma_a_names')
+      s = 'a list of at most 16 quoted names'
+    case ('format')
+      s = 'a quoted string'
     case ('gamma_u_markers', 'gamma_a_markers')
       s = 'a list of at most 16 integers'
     case default
@@ -757,6 +812,50 @@ contains
     end do
   end function skip_blanks
 
+  !> '; did you mean <prefix>X?' for the word X of the blank-separated list `names` closest
+  !> to `name` (restricted Damerau-Levenshtein distance: insertions, deletions,
+  !> substitutions, swaps of neighbours) when it is at most max_typo_distance and shorter
+  !> than `name`; otherwise ''.
+  pure function did_you_mean(name, names, prefix) result(hint)
+    character(len=*), intent(in) :: name, names, prefix
+    character(len=:), allocatable :: hint
+    integer, parameter :: max_typo_distance = 2
+    character(len=:), allocatable :: a, b
+    integer :: p, q, best, dist
+    integer, allocatable :: d(:,:)
+    integer :: i, j
+    hint = ''
+    a = trim(name)
+    best = max_typo_distance + 1
+    p = 1
+    do while (p <= len_trim(names))
+      if (names(p:p) == ' ') then
+        p = p + 1
+        cycle
+      end if
+      q = index(names(p:) // ' ', ' ') + p - 2
+      b = names(p:q)
+      allocate (d(0:len(a), 0:len(b)))
+      d(:, 0) = [(i, i=0, len(a))]
+      d(0, :) = [(j, j=0, len(b))]
+      do i = 1, len(a)
+        do j = 1, len(b)
+          d(i, j) = min(d(i - 1, j) + 1, d(i, j - 1) + 1, d(i - 1, j - 1) + merge(0, 1, a(i:i) == b(j:j)))
+          if (i > 1 .and. j > 1) then
+            if (a(i:i) == b(j - 1:j - 1) .and. a(i - 1:i - 1) == b(j:j)) d(i, j) = min(d(i, j), d(i - 2, j - 2) + 1)
+          end if
+        end do
+      end do
+      dist = d(len(a), len(b))
+      deallocate (d)
+      if (dist < best .and. dist < len(a)) then
+        best = dist
+        hint = '; did you mean ' // prefix // b // '?'
+      end if
+      p = q + 1
+    end do
+  end function did_you_mean
+
   pure function ltoa(l) result(s)
     logical, intent(in) :: l
     character(len=:), allocatable :: s
@@ -775,4 +874,18 @@ contains
     if (len(s) == 0) s = ' 0'
     s = s(2:)
   end function ilist
+
+  !> The non-blank names of a list, quoted and separated by commas ('' when there is none).
+  pure function slist(v) result(s)
+    character(len=*), intent(in) :: v(:)
+    character(len=:), allocatable :: s
+    integer :: k
+    s = ''
+    do k = 1, size(v)
+      if (len_trim(v(k)) == 0) cycle
+      if (len(s) > 0) s = s // ', '
+      s = s // '''' // trim(v(k)) // ''''
+    end do
+    if (len(s) == 0) s = ''''''
+  end function slist
 end module dualsig_io_config

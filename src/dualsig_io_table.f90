@@ -5,15 +5,18 @@
 !> floating-point traps of the checked build stay armed.  Columns are integers or reals.
 module dualsig_io_table
   use dualsig_kinds, only: dp
-  use dualsig_status, only: status_t, set_error, DS_ERR_IO
+  use dualsig_status, only: status_t, set_error, DS_ERR_IO, DS_ERR_INPUT
   use dualsig_io_files, only: temp_name, file_delete
   implicit none
   private
 
   public :: table_t, table_init, table_new_row, table_set, table_value, table_has, &
-            table_write_text, table_write_csv, table_format_row, table_format_header, observed_rate
+            table_write_text, table_write_csv, table_write_latex, table_format_row, table_format_header, &
+            observed_rate
 
   integer, parameter :: col_width = 13   !! width of a text-table column
+  !> Reals of the LaTeX table: 4 significant digits (mantissa d.ddd, exponent separate).
+  character(len=*), parameter :: latex_real_fmt = '(es16.3e3)'
 
   type :: table_t
     integer :: ncol = 0
@@ -197,6 +200,83 @@ contains
     end if
   end subroutine table_write_csv
 
+  !> Write the table as a LaTeX `booktabs` table (\toprule, \midrule, \bottomrule; the
+  !> document needs \usepackage{booktabs}) to temp_name(path).  Column names and the
+  !> caption have the LaTeX special characters escaped (level_s -> level\_s); integer
+  !> columns are written as integers, reals in scientific notation as $d.ddd\times10^{e}$
+  !> (plain $d.ddd$ for e = 0; no siunitx), absent cells as '--'.  `columns` selects and
+  !> orders the columns (default: all); an unknown name is an input error.  The caller
+  !> commits the file.
+  subroutine table_write_latex(tab, path, caption, st, columns)
+    type(table_t), intent(in) :: tab
+    character(len=*), intent(in) :: path
+    character(len=*), intent(in) :: caption
+    type(status_t), intent(out) :: st
+    character(len=*), intent(in), optional :: columns(:)
+    integer, allocatable :: cols(:)
+    integer :: u, ios, io, k, r
+    character(len=:), allocatable :: line
+    character(len=256) :: msg
+    if (present(columns)) then
+      allocate (cols(size(columns)))
+      do k = 1, size(columns)
+        cols(k) = column(tab, trim(columns(k)))
+        if (cols(k) == 0) then
+          call set_error(st, DS_ERR_INPUT, 'LaTeX table ' // trim(path) // ': no column "' // &
+            trim(columns(k)) // '" in the table')
+          return
+        end if
+      end do
+    else
+      cols = [(k, k=1, tab%ncol)]
+    end if
+    open (newunit=u, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
+    if (ios /= 0) then
+      call set_error(st, DS_ERR_IO, 'cannot write ' // trim(path) // ': ' // trim(msg))
+      return
+    end if
+    write (u, '(a)', iostat=ios) '% dualsig error table; needs \usepackage{booktabs}'
+    write (u, '(a)', iostat=io) '\begin{table}[htbp]'
+    ios = max(ios, abs(io))
+    write (u, '(a)', iostat=io) '\centering'
+    ios = max(ios, abs(io))
+    write (u, '(a)', iostat=io) '\caption{' // latex_escape(trim(caption)) // '}'
+    ios = max(ios, abs(io))
+    write (u, '(a)', iostat=io) '\begin{tabular}{' // repeat('r', size(cols)) // '}'
+    ios = max(ios, abs(io))
+    write (u, '(a)', iostat=io) '\toprule'
+    ios = max(ios, abs(io))
+    line = ''
+    do k = 1, size(cols)
+      if (k > 1) line = line // ' & '
+      line = line // latex_escape(trim(tab%name(cols(k))))
+    end do
+    write (u, '(a)', iostat=io) line // ' \\'
+    ios = max(ios, abs(io))
+    write (u, '(a)', iostat=io) '\midrule'
+    ios = max(ios, abs(io))
+    do r = 1, tab%nrow
+      line = ''
+      do k = 1, size(cols)
+        if (k > 1) line = line // ' & '
+        line = line // latex_cell(tab, cols(k), r)
+      end do
+      write (u, '(a)', iostat=io) line // ' \\'
+      ios = max(ios, abs(io))
+    end do
+    write (u, '(a)', iostat=io) '\bottomrule'
+    ios = max(ios, abs(io))
+    write (u, '(a)', iostat=io) '\end{tabular}'
+    ios = max(ios, abs(io))
+    write (u, '(a)', iostat=io) '\end{table}'
+    ios = max(ios, abs(io))
+    close (u, iostat=io)
+    if (ios /= 0 .or. io /= 0) then
+      call file_delete(temp_name(path))
+      call set_error(st, DS_ERR_IO, 'error while writing ' // trim(path))
+    end if
+  end subroutine table_write_latex
+
   ! ------------------------------------------------------------------ private
   pure integer function column(tab, name)
     type(table_t), intent(in) :: tab
@@ -231,4 +311,62 @@ contains
     end if
     s = trim(adjustl(buf))
   end function cell
+
+  !> Cell text for LaTeX: integer, $d.ddd\times10^{e}$ (sign in the mantissa), or '--'.
+  pure function latex_cell(tab, k, row) result(s)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: k, row
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    integer :: e, ios, k_exp
+    if (.not. tab%present(k, row)) then
+      s = '--'
+      return
+    end if
+    if (tab%is_int(k)) then
+      write (buf, '(i0)') nint(tab%val(k, row))
+      s = trim(buf)
+      return
+    end if
+    if (tab%val(k, row) == 0.0_dp) then
+      s = '$0$'
+      return
+    end if
+    write (buf, latex_real_fmt) tab%val(k, row)
+    buf = adjustl(buf)
+    e = index(buf, 'E')
+    if (e == 0) then
+      s = '$' // trim(buf) // '$'
+      return
+    end if
+    read (buf(e + 1:), *, iostat=ios) k_exp
+    s = '$' // buf(1:e - 1)
+    if (ios == 0 .and. k_exp /= 0) then
+      write (buf, '(i0)') k_exp
+      s = s // '\times10^{' // trim(buf) // '}'
+    end if
+    s = s // '$'
+  end function latex_cell
+
+  !> `text` with the LaTeX special characters escaped for use in ordinary text.
+  pure function latex_escape(text) result(s)
+    character(len=*), intent(in) :: text
+    character(len=:), allocatable :: s
+    integer :: k
+    s = ''
+    do k = 1, len(text)
+      select case (text(k:k))
+      case ('_', '&', '%', '$', '#', '{', '}')
+        s = s // '\' // text(k:k)
+      case ('\')
+        s = s // '\textbackslash{}'
+      case ('~')
+        s = s // '\textasciitilde{}'
+      case ('^')
+        s = s // '\textasciicircum{}'
+      case default
+        s = s // text(k:k)
+      end select
+    end do
+  end function latex_escape
 end module dualsig_io_table

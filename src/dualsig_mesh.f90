@@ -88,18 +88,30 @@ contains
   !> boundary loops and corners from `xy`, `tri`, `bedge_nodes` and `bedge_marker`.
   !>
   !> Checks: indices in range, positive triangle areas, no edge shared by more than two
-  !> triangles, every topological boundary edge listed exactly once with a marker > 0,
-  !> no listed boundary edge that is interior, boundary loops closed and manifold.
+  !> triangles, every node a vertex of some triangle, every topological boundary edge
+  !> listed exactly once with a marker > 0, no listed boundary edge that is interior,
+  !> boundary loops closed and manifold.  A side missing from the boundary list is
+  !> reported as a hanging node when a node lies inside it (non-conforming mesh).
   !> The input orientation of boundary edges is free; they are re-oriented so that the
-  !> domain lies on their left.  Runs in time linear in the number of triangles.
-  subroutine mesh_build_topology(mesh, st)
+  !> domain lies on their left.  Runs in time linear in the number of triangles (the
+  !> hanging-node search runs only on the error path).
+  !> On an error, `bad_tri`, `bad_bedge` and `bad_node` (optional) return the triangle,
+  !> listed boundary edge or node the message is about (0: none), so that a reader can
+  !> name the line of the file.
+  subroutine mesh_build_topology(mesh, st, bad_tri, bad_bedge, bad_node)
     type(mesh_t), intent(inout) :: mesh
     type(status_t), intent(out) :: st
+    integer, intent(out), optional :: bad_tri, bad_bedge, bad_node
     integer, allocatable :: head(:), cnt(:), bucket_other(:), bucket_edge(:)
     integer, allocatable :: bedge_of_edge(:), edge_local(:,:)
     integer :: t, k, a, b, lo, hi, e, j, nb, ne, p, nxt, l, start, cur, steps
     real(dp) :: area_tol, d(2), din(2), dout(2), len_in, len_out, sin_angle
-    character(len=160) :: buf
+    character(len=320) :: buf
+    logical, allocatable :: used(:)
+
+    if (present(bad_tri)) bad_tri = 0
+    if (present(bad_bedge)) bad_bedge = 0
+    if (present(bad_node)) bad_node = 0
 
     if (mesh%nnode < 3 .or. mesh%ntri < 1) then
       call set_error(st, DS_ERR_MESH, 'mesh: need at least 3 nodes and 1 triangle')
@@ -110,6 +122,7 @@ contains
       write (buf, '(a,i0,a,i0,a)') 'mesh: triangle ', t, ' has a vertex index outside 1..', &
         mesh%nnode, ' (node count)'
       call set_error(st, DS_ERR_MESH, trim(buf))
+      call culprit(tri=t)
       return
     end if
     area_tol = geom_rel_tol * mesh_diameter(mesh)**2
@@ -118,6 +131,7 @@ contains
         write (buf, '(a,i0,a)') 'mesh: triangle ', t, &
           ' has zero or negative area (expected counter-clockwise vertices)'
         call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(tri=t)
         return
       end if
     end do
@@ -152,6 +166,7 @@ contains
         if (lo == hi) then
           write (buf, '(a,i0,a)') 'mesh: triangle ', t, ' repeats a vertex'
           call set_error(st, DS_ERR_MESH, trim(buf))
+          call culprit(tri=t)
           return
         end if
         e = find_edge(lo, hi)
@@ -169,9 +184,11 @@ contains
           mesh%edge_tri(2, e) = t
           edge_local(2, e) = k
         else
-          write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: edge (', lo, ',', hi, &
-            ') is shared by more than two triangles (third: ', t, ')'
+          write (buf, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') 'mesh: edge (', lo, ',', hi, &
+            ') is shared by more than two triangles (triangles ', mesh%edge_tri(1, e), ', ', &
+            mesh%edge_tri(2, e), ' and ', t, '; expected at most two: overlapping triangles?)'
           call set_error(st, DS_ERR_MESH, trim(buf))
+          call culprit(tri=t)
           return
         end if
         mesh%tri_edge(k, t) = e
@@ -181,50 +198,63 @@ contains
     mesh%edge_nodes = mesh%edge_nodes(:, 1:ne)
     mesh%edge_tri = mesh%edge_tri(:, 1:ne)
 
+    ! --- every node must be a vertex (an unused node has no basis function support) ---
+    allocate (used(mesh%nnode), source=.false.)
+    do t = 1, mesh%ntri
+      used(mesh%tri(:, t)) = .true.
+    end do
+
     ! --- match the listed boundary edges to the topological ones ---
     nb = count(mesh%edge_tri(2, :) == 0)
-    if (nb /= mesh%nbedge) then
-      write (buf, '(a,i0,a,i0)') 'mesh: the triangles have ', nb, &
-        ' boundary edges but the boundary edge list has ', mesh%nbedge
-      call set_error(st, DS_ERR_MESH, trim(buf))
-      return
-    end if
     allocate (bedge_of_edge(ne), source=0)
-    allocate (mesh%bedge_edge(nb), mesh%bedge_tri(nb), mesh%bedge_normal(2, nb), &
-              mesh%bedge_length(nb))
-    do j = 1, nb
+    allocate (mesh%bedge_edge(mesh%nbedge), mesh%bedge_tri(mesh%nbedge), &
+              mesh%bedge_normal(2, mesh%nbedge), mesh%bedge_length(mesh%nbedge))
+    do j = 1, mesh%nbedge
       a = mesh%bedge_nodes(1, j)
       b = mesh%bedge_nodes(2, j)
       if (min(a, b) < 1 .or. max(a, b) > mesh%nnode) then
         write (buf, '(a,i0,a,i0)') 'mesh: boundary edge ', j, &
           ' has a node index outside 1..', mesh%nnode
         call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(bedge=j)
         return
       end if
       if (mesh%bedge_marker(j) <= 0) then
         write (buf, '(a,i0,a)') 'mesh: boundary edge ', j, ' has no marker (expected an integer > 0)'
         call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(bedge=j)
         return
       end if
       lo = min(a, b)
       hi = max(a, b)
-      e = find_edge(lo, hi)
+      e = 0
+      if (lo /= hi) e = find_edge(lo, hi)
       if (e == 0) then
-        write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
-          ') is not a side of any triangle'
+        if (.not. used(a) .or. .not. used(b)) then
+          ! (A3): the end points of Gamma_u / Gamma_a pieces must be vertices of the triangulation
+          write (buf, '(a,i0,a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
+            ') ends at node ', merge(b, a, used(a)), ', which is not a vertex of any triangle ' // &
+            '(expected a side of a triangle: the end points of Gamma_u and Gamma_a must be mesh vertices, A3)'
+        else
+          write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
+            ') is not a side of any triangle (expected two vertices of one triangle)'
+        end if
         call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(bedge=j)
         return
       end if
       if (mesh%edge_tri(2, e) /= 0) then
         write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
-          ') is an interior edge'
+          ') is an interior edge (expected a side of only one triangle)'
         call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(bedge=j)
         return
       end if
       if (bedge_of_edge(e) /= 0) then
-        write (buf, '(a,i0,a,i0)') 'mesh: boundary edge ', j, ' repeats boundary edge ', &
-          bedge_of_edge(e)
+        write (buf, '(a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' repeats boundary edge ', &
+          bedge_of_edge(e), ' (expected every boundary side once)'
         call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(bedge=j)
         return
       end if
       bedge_of_edge(e) = j
@@ -237,6 +267,21 @@ contains
       d = mesh%xy(:, mesh%bedge_nodes(2, j)) - mesh%xy(:, mesh%bedge_nodes(1, j))
       mesh%bedge_length(j) = hypot(d(1), d(2))
       mesh%bedge_normal(:, j) = [d(2), -d(1)] / mesh%bedge_length(j)
+    end do
+    ! every listed edge matched a distinct topological boundary edge: any left are unlisted
+    if (nb /= mesh%nbedge) then
+      e = findloc(mesh%edge_tri(2, :) == 0 .and. bedge_of_edge == 0, .true., dim=1)
+      call report_unlisted_side(e)
+      return
+    end if
+    do j = 1, mesh%nnode
+      if (.not. used(j)) then
+        write (buf, '(a,i0,a)') 'mesh: node ', j, ' is not a vertex of any triangle (expected every ' // &
+          'node to be used by a triangle)'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(node=j)
+        return
+      end if
     end do
 
     ! --- boundary loops: follow boundary edges head to tail ---
@@ -300,6 +345,63 @@ contains
 
   contains
 
+    !> Store the item an error is about in the optional output arguments.
+    subroutine culprit(tri, bedge, node)
+      integer, intent(in), optional :: tri, bedge, node
+      if (present(tri) .and. present(bad_tri)) bad_tri = tri
+      if (present(bedge) .and. present(bad_bedge)) bad_bedge = bedge
+      if (present(node) .and. present(bad_node)) bad_node = node
+    end subroutine culprit
+
+    !> Error: the side edge_nodes(:, e) of triangle edge_tri(1, e) is a boundary side that
+    !> the boundary list lacks.  When a node lies inside it, or one of its end nodes lies
+    !> inside another boundary side, the mesh is non-conforming (hanging node): say so.
+    subroutine report_unlisted_side(e)
+      integer, intent(in) :: e
+      integer :: c, f, hang, host, k
+      real(dp) :: tol
+      tol = geom_rel_tol * mesh_diameter(mesh)
+      hang = 0
+      host = e
+      do c = 1, mesh%nnode
+        if (c == mesh%edge_nodes(1, e) .or. c == mesh%edge_nodes(2, e)) cycle
+        if (inside_segment(mesh%xy(:, c), mesh%xy(:, mesh%edge_nodes(1, e)), &
+                           mesh%xy(:, mesh%edge_nodes(2, e)), tol)) then
+          hang = c
+          exit
+        end if
+      end do
+      if (hang == 0) then
+        search: do f = 1, mesh%nedge
+          if (f == e .or. mesh%edge_tri(2, f) /= 0) cycle
+          do k = 1, 2
+            c = mesh%edge_nodes(k, e)
+            if (c == mesh%edge_nodes(1, f) .or. c == mesh%edge_nodes(2, f)) cycle
+            if (inside_segment(mesh%xy(:, c), mesh%xy(:, mesh%edge_nodes(1, f)), &
+                               mesh%xy(:, mesh%edge_nodes(2, f)), tol)) then
+              hang = c
+              host = f
+              exit search
+            end if
+          end do
+        end do search
+      end if
+      if (hang /= 0) then
+        write (buf, '(a,i0,a,i0,a,i0,a,i0,a)') 'mesh: node ', hang, ' lies inside the side (', &
+          mesh%edge_nodes(1, host), ',', mesh%edge_nodes(2, host), ') of triangle ', mesh%edge_tri(1, host), &
+          ' without being one of its vertices: a hanging node (expected a conforming triangulation, ' // &
+          'neighbouring triangles sharing whole sides)'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(tri=mesh%edge_tri(1, host))
+      else
+        write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: the side (', mesh%edge_nodes(1, e), ',', &
+          mesh%edge_nodes(2, e), ') of triangle ', mesh%edge_tri(1, e), ' is on the boundary but not in ' // &
+          'the boundary list (expected every boundary side listed once, with a marker > 0)'
+        call set_error(st, DS_ERR_MESH, trim(buf))
+        call culprit(tri=mesh%edge_tri(1, e))
+      end if
+    end subroutine report_unlisted_side
+
     !> The edge (lo, hi), lo < hi, already stored in lo's bucket, or 0.
     pure integer function find_edge(lo, hi) result(edge)
       integer, intent(in) :: lo, hi
@@ -313,4 +415,18 @@ contains
       end do
     end function find_edge
   end subroutine mesh_build_topology
+
+  !> True when point p lies on the segment from a to b, strictly between its end points:
+  !> distance to the line <= tol and the projection more than tol from both ends.
+  pure logical function inside_segment(p, a, b, tol) result(inside)
+    real(dp), intent(in) :: p(2), a(2), b(2), tol
+    real(dp) :: d(2), len_ab, along, across
+    d = b - a
+    len_ab = hypot(d(1), d(2))
+    inside = .false.
+    if (.not. (len_ab > tol)) return
+    along = dot_product(p - a, d) / len_ab
+    across = abs(d(1) * (p(2) - a(2)) - d(2) * (p(1) - a(1))) / len_ab
+    inside = across <= tol .and. along > tol .and. along < len_ab - tol
+  end function inside_segment
 end module dualsig_mesh

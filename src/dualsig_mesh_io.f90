@@ -31,6 +31,12 @@
 !> The writer uses ES24.16E3 for coordinates (17 significant digits), so that a written and
 !> re-read mesh has bit-identical coordinates.  It writes the file in place (no temporary
 !> file); if a write fails, the partly written file is deleted.
+!>
+!> The module also holds what the Gmsh and Triangle readers share with this one: a line
+!> reader for records with any number of fields (`mesh_text_reader_t`), the number parsers,
+!> the geometric checks and reorientation (`mesh_check_geometry`), the attachment of
+!> boundary markers from edges listed in a file (`mesh_mark_boundary`) and the removal of
+!> nodes no triangle uses (`mesh_drop_unused_nodes`).
 module dualsig_mesh_io
   use, intrinsic :: iso_fortran_env, only: iostat_end, iostat_eor
   use dualsig_kinds, only: dp, i8, geom_rel_tol
@@ -41,6 +47,11 @@ module dualsig_mesh_io
   private
 
   public :: mesh_read_text, mesh_write_text
+  ! shared with the Gmsh and Triangle readers (dualsig_mesh_gmsh, dualsig_mesh_triangle)
+  public :: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, mesh_reader_expect, &
+            mesh_reader_field, mesh_reader_int, mesh_reader_real, mesh_reader_fail, mesh_quote
+  public :: mesh_check_geometry, mesh_finish_topology, mesh_drop_unused_nodes, mesh_mark_boundary
+  public :: merge_sort_pairs, lower_bound, mesh_note_len
 
   character(len=*), parameter :: magic = 'dualsig-mesh'   !! first word of the header line
   integer, parameter :: format_version = 1                 !! second word of the header line
@@ -74,6 +85,21 @@ module dualsig_mesh_io
     integer :: fb(max_fields) = 0             !! first character of field k
     integer :: fe(max_fields) = 0             !! last character of field k
   end type reader_t
+
+  !> Line reader of the Gmsh and Triangle readers: records with any number of fields.
+  type :: mesh_text_reader_t
+    integer :: unit = -1
+    character(len=:), allocatable :: path
+    character(len=:), allocatable :: line     !! current record (without line end and comment)
+    integer :: lineno = 0                     !! number of the current line in the file
+    integer :: nf = 0                         !! number of fields of the current record
+    integer, allocatable :: fb(:), fe(:)      !! first and last character of field k
+    logical :: hash_comments = .false.        !! '#' starts a comment that runs to the line end
+  end type mesh_text_reader_t
+  !> Length of the notes (skipped elements, dropped nodes, ...) the file readers return.
+  integer, parameter :: mesh_note_len = 200
+  !> Initial number of field slots of a mesh_text_reader_t (doubled when a line has more).
+  integer, parameter :: initial_field_slots = 16
 
 contains
 
@@ -112,10 +138,9 @@ contains
     type(mesh_t), intent(inout) :: mesh
     integer, intent(out) :: nflip
     type(status_t), intent(inout) :: st
-    integer, allocatable :: node_line(:), tri_line(:)
+    integer, allocatable :: node_line(:), tri_line(:), bnd_line(:)
     integer :: i, k, v, nn, nt, nb, version, istat
     logical :: found
-    real(dp) :: area, area_tol
 
     nflip = 0
     ! --- header ---
@@ -178,7 +203,7 @@ contains
 
     ! --- boundary edges ---
     if (.not. section_header(rd, 'boundary', nb, st)) return
-    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb), stat=istat)
+    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb), bnd_line(nb), stat=istat)
     if (istat /= 0) then
       call fail(rd, 'cannot allocate ' // itoa(nb) // ' boundary edges (expected a smaller count)', st)
       return
@@ -186,6 +211,7 @@ contains
     mesh%nbedge = nb
     do i = 1, nb
       if (.not. data_record(rd, 'boundary', i, nb, 4, '<id> <n1> <n2> <marker>', st)) return
+      bnd_line(i) = rd%lineno
       do k = 2, 3
         if (.not. node_field(rd, k, nn, mesh%bedge_nodes(k - 1, i), st)) return
       end do
@@ -207,30 +233,10 @@ contains
       return
     end if
 
-    ! --- geometric checks ---
-    call check_duplicate_nodes(rd, mesh, node_line, st)
+    ! --- geometric checks, orientation, topology ---
+    call mesh_check_geometry(rd%path, mesh, node_line, tri_line, nflip, st)
     if (st%code /= 0) return
-    area_tol = geom_rel_tol * mesh_diameter(mesh)**2
-    do i = 1, nt
-      area = mesh_triangle_area(mesh, i)
-      if (abs(area) <= area_tol) then
-        rd%lineno = tri_line(i)
-        call fail(rd, 'triangle ' // itoa(i) // ' has zero area (|area| <= ' // rtoa(area_tol) // &
-          '; expected three non-collinear vertices)', st)
-        return
-      end if
-      if (area < 0.0_dp) then
-        mesh%tri(2:3, i) = mesh%tri([3, 2], i)
-        nflip = nflip + 1
-      end if
-    end do
-
-    call mesh_build_topology(mesh, st)
-    if (st%code /= 0) then
-      ! keep the code; name the file instead of the generic 'mesh: ' prefix
-      if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(len('mesh: ') + 1:)
-      st%msg = "mesh file '" // rd%path // "': " // st%msg
-    end if
+    call mesh_finish_topology(rd%path, mesh, st, node_line, tri_line, bnd_line)
   end subroutine read_body
 
   !> Write `mesh` to file `path` in the dualsig text format (see the module header),
@@ -646,11 +652,12 @@ contains
   !> x and y.  The nodes are bucketed on a grid of cells of width 2 tol (so that two such
   !> nodes lie in the same or in adjacent cells), the cells are sorted, and each node is
   !> compared with the nodes of its own and the neighbouring cells only: O(N log N).
-  subroutine check_duplicate_nodes(rd, mesh, node_line, st)
+  subroutine check_duplicate_nodes(rd, mesh, node_line, st, node_id)
     type(reader_t), intent(inout) :: rd
     type(mesh_t), intent(in) :: mesh
     integer, intent(in) :: node_line(:)
     type(status_t), intent(inout) :: st
+    integer, intent(in), optional :: node_id(:)   !! the node ids of the file (default 1, 2, ...)
     integer(i8), allocatable :: kx(:), ky(:)
     integer, allocatable :: perm(:)
     integer :: nn, i, j, p, q, dx
@@ -697,8 +704,15 @@ contains
     !> Error: node b repeats node a.
     subroutine report(a, b)
       integer, intent(in) :: a, b
+      integer :: ia, ib
+      ia = a
+      ib = b
+      if (present(node_id)) then
+        ia = node_id(a)
+        ib = node_id(b)
+      end if
       rd%lineno = node_line(b)
-      call fail(rd, 'node ' // itoa(b) // ' duplicates node ' // itoa(a) // ' (line ' // &
+      call fail(rd, 'node ' // itoa(ib) // ' duplicates node ' // itoa(ia) // ' (line ' // &
         itoa(node_line(a)) // '): same coordinates within ' // rtoa(tol) // &
         ' (expected distinct node coordinates)', st)
     end subroutine report
@@ -793,4 +807,402 @@ contains
     if (len(text) > echo_len) s = s // '...'
     s = "'" // s // "'"
   end function quote
+  ! ------------------------------------------------------------------ shared with the Gmsh and Triangle readers
+
+  !> Open mesh file `path` for the line reader; `hash_comments` makes '#' start a comment
+  !> that runs to the end of its line.  DS_ERR_IO when the file cannot be opened.
+  subroutine mesh_reader_open(rd, path, hash_comments, st)
+    type(mesh_text_reader_t), intent(out) :: rd
+    character(len=*), intent(in) :: path
+    logical, intent(in) :: hash_comments
+    type(status_t), intent(inout) :: st
+    integer :: ios
+    character(len=256) :: iom
+    rd%path = path
+    rd%hash_comments = hash_comments
+    allocate (rd%fb(initial_field_slots), rd%fe(initial_field_slots))
+    iom = ''
+    open (newunit=rd%unit, file=path, status='old', action='read', form='formatted', &
+          access='sequential', iostat=ios, iomsg=iom)
+    if (ios /= 0) then
+      rd%unit = -1
+      call set_error(st, DS_ERR_IO, "mesh file '" // path // "': cannot open for reading (" // &
+        trim(iom) // "); expected an existing readable file")
+    end if
+  end subroutine mesh_reader_open
+
+  !> Close the file of the line reader (if open).
+  subroutine mesh_reader_close(rd)
+    type(mesh_text_reader_t), intent(inout) :: rd
+    integer :: ios
+    if (rd%unit /= -1) close (rd%unit, iostat=ios)
+    rd%unit = -1
+  end subroutine mesh_reader_close
+
+  !> Advance to the next record (a line with at least one field once a comment is removed)
+  !> and split it into blank- or tab-separated fields.  found = .false. at the end of the file.
+  subroutine mesh_reader_next(rd, found, st)
+    type(mesh_text_reader_t), intent(inout) :: rd
+    logical, intent(out) :: found
+    type(status_t), intent(inout) :: st
+    integer :: ios, k, p, b, e, n
+    integer, allocatable :: grown(:)
+    character(len=256) :: iom
+
+    found = .false.
+    do
+      iom = ''
+      call read_line(rd%unit, rd%line, ios, iom)
+      if (ios == iostat_end) return
+      if (ios /= 0) then
+        call set_error(st, DS_ERR_IO, "mesh file '" // rd%path // "', line " // &
+          itoa(rd%lineno + 1) // ': read error (' // trim(iom) // '); expected a text file')
+        return
+      end if
+      rd%lineno = rd%lineno + 1
+      if (rd%hash_comments) then
+        k = index(rd%line, '#')
+        if (k > 0) rd%line = rd%line(1:k - 1)
+      end if
+      rd%nf = 0
+      p = 1
+      n = len(rd%line)
+      do
+        if (p > n) exit
+        b = verify(rd%line(p:), whitespace)
+        if (b == 0) exit
+        b = p + b - 1
+        e = scan(rd%line(b:), whitespace)
+        if (e == 0) then
+          e = n
+        else
+          e = b + e - 2
+        end if
+        rd%nf = rd%nf + 1
+        if (rd%nf > size(rd%fb)) then
+          allocate (grown(2 * size(rd%fb)))
+          grown(1:size(rd%fb)) = rd%fb
+          call move_alloc(grown, rd%fb)
+          allocate (grown(2 * size(rd%fe)))
+          grown(1:size(rd%fe)) = rd%fe
+          call move_alloc(grown, rd%fe)
+        end if
+        rd%fb(rd%nf) = b
+        rd%fe(rd%nf) = e
+        p = e + 1
+      end do
+      if (rd%nf > 0) exit
+    end do
+    found = .true.
+  end subroutine mesh_reader_next
+
+  !> Advance to the next record; at the end of the file record an error saying that
+  !> `expected` was expected (a truncated file).
+  logical function mesh_reader_expect(rd, expected, st) result(ok)
+    type(mesh_text_reader_t), intent(inout) :: rd
+    character(len=*), intent(in) :: expected
+    type(status_t), intent(inout) :: st
+    call mesh_reader_next(rd, ok, st)
+    if (st%code /= 0) then
+      ok = .false.
+      return
+    end if
+    if (.not. ok) call set_error(st, DS_ERR_MESH, "mesh file '" // rd%path // &
+      "': unexpected end of file after line " // itoa(rd%lineno) // ' (expected ' // expected // &
+      '; truncated file?)')
+  end function mesh_reader_expect
+
+  !> Text of field k of the current record ('' when the record has fewer fields).
+  function mesh_reader_field(rd, k) result(s)
+    type(mesh_text_reader_t), intent(in) :: rd
+    integer, intent(in) :: k
+    character(len=:), allocatable :: s
+    if (k < 1 .or. k > rd%nf) then
+      s = ''
+    else
+      s = rd%line(rd%fb(k):rd%fe(k))
+    end if
+  end function mesh_reader_field
+
+  !> Field k of the current record as an integer; `what` names it in the error message.
+  logical function mesh_reader_int(rd, k, what, v, st) result(ok)
+    type(mesh_text_reader_t), intent(in) :: rd
+    integer, intent(in) :: k
+    character(len=*), intent(in) :: what
+    integer, intent(out) :: v
+    type(status_t), intent(inout) :: st
+    character(len=why_len) :: why
+    v = 0
+    if (k > rd%nf) then
+      ok = .false.
+      call mesh_reader_fail(rd, 'field ' // itoa(k) // ' (' // what // ') is missing in ' // &
+        quote(rd%line) // ' (expected an integer)', st)
+      return
+    end if
+    ok = parse_int(rd%line(rd%fb(k):rd%fe(k)), v, why)
+    if (.not. ok) call mesh_reader_fail(rd, 'field ' // itoa(k) // ' (' // what // ') ' // &
+      quote(mesh_reader_field(rd, k)) // ' is ' // trim(why) // ' (expected an integer)', st)
+  end function mesh_reader_int
+
+  !> Field k of the current record as a real number of magnitude <= max_abs_coord.
+  logical function mesh_reader_real(rd, k, what, v, st) result(ok)
+    type(mesh_text_reader_t), intent(in) :: rd
+    integer, intent(in) :: k
+    character(len=*), intent(in) :: what
+    real(dp), intent(out) :: v
+    type(status_t), intent(inout) :: st
+    character(len=why_len) :: why
+    v = 0.0_dp
+    if (k > rd%nf) then
+      ok = .false.
+      call mesh_reader_fail(rd, 'field ' // itoa(k) // ' (' // what // ') is missing in ' // &
+        quote(rd%line) // ' (expected a real number)', st)
+      return
+    end if
+    ok = parse_real(rd%line(rd%fb(k):rd%fe(k)), v, why)
+    if (.not. ok) call mesh_reader_fail(rd, 'field ' // itoa(k) // ' (' // what // ') ' // &
+      quote(mesh_reader_field(rd, k)) // ' is ' // trim(why) // ' (expected a real number of magnitude <= ' // &
+      rtoa(max_abs_coord) // ')', st)
+  end function mesh_reader_real
+
+  !> Record a content error at the current line of the line reader.
+  subroutine mesh_reader_fail(rd, what, st)
+    type(mesh_text_reader_t), intent(in) :: rd
+    character(len=*), intent(in) :: what
+    type(status_t), intent(inout) :: st
+    call set_error(st, DS_ERR_MESH, "mesh file '" // rd%path // "', line " // itoa(rd%lineno) // ': ' // what)
+  end subroutine mesh_reader_fail
+
+  !> The text in quotes for a message, cut to echo_len characters, control characters as '?'.
+  pure function mesh_quote(text) result(s)
+    character(len=*), intent(in) :: text
+    character(len=:), allocatable :: s
+    s = quote(text)
+  end function mesh_quote
+
+  !> Geometric checks of a mesh read from file `path` (nodes and triangles set): no two nodes
+  !> within geom_rel_tol * diameter in x and y, no triangle with |area| <= geom_rel_tol *
+  !> diameter**2.  Clockwise triangles (negative signed area) are made counter-clockwise by
+  !> swapping their 2nd and 3rd vertex and counted in nflip.  node_line / tri_line: the file
+  !> line of each node / triangle; node_id / tri_id (optional): the ids the file gives them
+  !> (default 1, 2, ...), used in the messages; tri_path (optional): the file of the
+  !> triangles when it is not `path` (Triangle's .ele next to its .node).
+  subroutine mesh_check_geometry(path, mesh, node_line, tri_line, nflip, st, node_id, tri_id, tri_path)
+    character(len=*), intent(in) :: path
+    type(mesh_t), intent(inout) :: mesh
+    integer, intent(in) :: node_line(:), tri_line(:)
+    integer, intent(out) :: nflip
+    type(status_t), intent(inout) :: st
+    integer, intent(in), optional :: node_id(:), tri_id(:)
+    character(len=*), intent(in), optional :: tri_path
+    type(reader_t) :: rd
+    integer :: i, id
+    real(dp) :: area, area_tol
+
+    nflip = 0
+    rd%path = path
+    call check_duplicate_nodes(rd, mesh, node_line, st, node_id)
+    if (st%code /= 0) return
+    area_tol = geom_rel_tol * mesh_diameter(mesh)**2
+    do i = 1, mesh%ntri
+      area = mesh_triangle_area(mesh, i)
+      if (abs(area) <= area_tol) then
+        id = i
+        if (present(tri_id)) id = tri_id(i)
+        if (present(tri_path)) rd%path = tri_path
+        rd%lineno = tri_line(i)
+        call fail(rd, 'triangle ' // itoa(id) // ' has zero area (|area| <= ' // rtoa(area_tol) // &
+          '; expected three non-collinear vertices)', st)
+        return
+      end if
+      if (area < 0.0_dp) then
+        mesh%tri(2:3, i) = mesh%tri([3, 2], i)
+        nflip = nflip + 1
+      end if
+    end do
+  end subroutine mesh_check_geometry
+
+  !> Build the topology of a mesh read from file `path` (mesh_build_topology); an error
+  !> message names the file and, when the optional line maps are given (file line of each
+  !> node, triangle, listed boundary edge), the line of the offending item.
+  subroutine mesh_finish_topology(path, mesh, st, node_line, tri_line, bnd_line)
+    character(len=*), intent(in) :: path
+    type(mesh_t), intent(inout) :: mesh
+    type(status_t), intent(inout) :: st
+    integer, intent(in), optional :: node_line(:), tri_line(:), bnd_line(:)
+    integer :: bad_tri, bad_bedge, bad_node
+    character(len=:), allocatable :: where
+    call mesh_build_topology(mesh, st, bad_tri, bad_bedge, bad_node)
+    if (st%code /= 0) then
+      ! keep the code; name the file (and line) instead of the generic 'mesh: ' prefix
+      if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(len('mesh: ') + 1:)
+      where = "mesh file '" // path // "'"
+      if (bad_bedge > 0 .and. present(bnd_line)) then
+        if (bad_bedge <= size(bnd_line)) where = where // ', line ' // itoa(bnd_line(bad_bedge))
+      else if (bad_tri > 0 .and. present(tri_line)) then
+        if (bad_tri <= size(tri_line)) where = where // ', line ' // itoa(tri_line(bad_tri))
+      else if (bad_node > 0 .and. present(node_line)) then
+        if (bad_node <= size(node_line)) where = where // ', line ' // itoa(node_line(bad_node))
+      end if
+      st%msg = where // ': ' // st%msg
+    end if
+  end subroutine mesh_finish_topology
+
+  !> Remove the nodes that no triangle uses (renumbering the rest in their order).
+  !> new_index(i) is the new number of old node i, 0 when it was removed; ndropped counts
+  !> the removed nodes.
+  subroutine mesh_drop_unused_nodes(mesh, new_index, ndropped)
+    type(mesh_t), intent(inout) :: mesh
+    integer, allocatable, intent(out) :: new_index(:)
+    integer, intent(out) :: ndropped
+    logical, allocatable :: used(:)
+    integer :: i, k, t, n
+    allocate (used(mesh%nnode), source=.false.)
+    allocate (new_index(mesh%nnode), source=0)
+    do t = 1, mesh%ntri
+      do k = 1, 3
+        used(mesh%tri(k, t)) = .true.
+      end do
+    end do
+    n = 0
+    do i = 1, mesh%nnode
+      if (.not. used(i)) cycle
+      n = n + 1
+      new_index(i) = n
+      mesh%xy(:, n) = mesh%xy(:, i)
+    end do
+    ndropped = mesh%nnode - n
+    if (ndropped == 0) return
+    do t = 1, mesh%ntri
+      do k = 1, 3
+        mesh%tri(k, t) = new_index(mesh%tri(k, t))
+      end do
+    end do
+    mesh%xy = mesh%xy(:, 1:n)
+    mesh%nnode = n
+  end subroutine mesh_drop_unused_nodes
+
+  !> Set the boundary edges of `mesh` (nodes and triangles set, node indices valid) and their
+  !> markers from the edges a file lists: cand(:, c) holds two node indices (0 = a node that
+  !> was dropped), cand_marker(c) the marker (<= 0: none) and cand_line(c) the file line.
+  !> The boundary sides are the triangle sides that belong to one triangle only.  A listed
+  !> edge on a boundary side gives it its marker; one on an interior side is ignored and
+  !> counted in ninterior; one that is no side of any triangle is an error, or, when
+  !> stray_ok, ignored and counted in nstray.  Errors: two different markers for one
+  !> boundary side, and boundary sides without a marker.  `what` names the listed edges in
+  !> messages (e.g. 'line element', 'segment').  Sorting: O(T log T).
+  subroutine mesh_mark_boundary(path, mesh, cand, cand_marker, cand_line, what, stray_ok, &
+                                ninterior, nstray, st)
+    character(len=*), intent(in) :: path
+    type(mesh_t), intent(inout) :: mesh
+    integer, intent(in) :: cand(:,:), cand_marker(:), cand_line(:)
+    character(len=*), intent(in) :: what
+    logical, intent(in) :: stray_ok
+    integer, intent(out) :: ninterior, nstray
+    type(status_t), intent(inout) :: st
+    integer(i8), allocatable :: kx(:), ky(:), ux(:), uy(:)
+    integer, allocatable :: perm(:), mult(:), marker(:), mline(:), ident(:)
+    integer :: nt, t, k, p, i, nu, c, q, nb, nunmarked, first
+    integer(i8) :: lo, hi
+
+    ninterior = 0
+    nstray = 0
+    nt = mesh%ntri
+    allocate (kx(3 * nt), ky(3 * nt), perm(3 * nt))
+    do t = 1, nt
+      do k = 1, 3
+        i = 3 * (t - 1) + k
+        kx(i) = min(mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t))
+        ky(i) = max(mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t))
+        perm(i) = i
+      end do
+    end do
+    call merge_sort_pairs(kx, ky, perm)
+    ! distinct sides (sorted) and the number of triangles sharing each
+    allocate (ux(3 * nt), uy(3 * nt), mult(3 * nt))
+    nu = 0
+    do p = 1, 3 * nt
+      i = perm(p)
+      if (nu > 0) then
+        if (ux(nu) == kx(i) .and. uy(nu) == ky(i)) then
+          mult(nu) = mult(nu) + 1
+          cycle
+        end if
+      end if
+      nu = nu + 1
+      ux(nu) = kx(i)
+      uy(nu) = ky(i)
+      mult(nu) = 1
+    end do
+    allocate (ident(nu), marker(nu), mline(nu))
+    ident = [(p, p=1, nu)]
+    marker = 0
+    mline = 0
+
+    do c = 1, size(cand, 2)
+      lo = min(cand(1, c), cand(2, c))
+      hi = max(cand(1, c), cand(2, c))
+      q = nu + 1
+      if (lo >= 1) q = lower_bound(ux(1:nu), uy(1:nu), ident, lo, hi)
+      if (q <= nu) then
+        if (ux(q) /= lo .or. uy(q) /= hi) q = nu + 1
+      end if
+      if (q > nu) then
+        if (stray_ok) then
+          nstray = nstray + 1
+          cycle
+        end if
+        call set_error(st, DS_ERR_MESH, "mesh file '" // path // "', line " // itoa(cand_line(c)) // &
+          ': the ' // what // ' is not a side of any triangle (expected an edge of the triangulation)')
+        return
+      end if
+      if (mult(q) /= 1) then
+        ninterior = ninterior + 1
+        cycle
+      end if
+      if (cand_marker(c) <= 0) cycle
+      if (marker(q) == 0) then
+        marker(q) = cand_marker(c)
+        mline(q) = cand_line(c)
+      else if (marker(q) /= cand_marker(c)) then
+        call set_error(st, DS_ERR_MESH, "mesh file '" // path // "', line " // itoa(cand_line(c)) // &
+          ': the ' // what // ' gives marker ' // itoa(cand_marker(c)) // ' to the boundary side ' // &
+          side_text(q) // ', which line ' // itoa(mline(q)) // ' marked ' // itoa(marker(q)) // &
+          ' (expected one marker per boundary side)')
+        return
+      end if
+    end do
+
+    nb = count(mult(1:nu) == 1)
+    nunmarked = count(mult(1:nu) == 1 .and. marker == 0)
+    if (nunmarked > 0) then
+      first = findloc(mult(1:nu) == 1 .and. marker == 0, .true., dim=1)
+      call set_error(st, DS_ERR_MESH, "mesh file '" // path // "': " // itoa(nunmarked) // ' of the ' // &
+        itoa(nb) // ' boundary sides have no marker, the first ' // side_text(first) // &
+        ' (boundary edge without marker; expected every boundary side covered by a ' // what // &
+        ' with a marker > 0)')
+      return
+    end if
+    if (allocated(mesh%bedge_nodes)) deallocate (mesh%bedge_nodes)
+    if (allocated(mesh%bedge_marker)) deallocate (mesh%bedge_marker)
+    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb))
+    mesh%nbedge = nb
+    k = 0
+    do q = 1, nu
+      if (mult(q) /= 1) cycle
+      k = k + 1
+      mesh%bedge_nodes(:, k) = [int(ux(q)), int(uy(q))]
+      mesh%bedge_marker(k) = marker(q)
+    end do
+
+  contains
+
+    !> 'from (x1, y1) to (x2, y2)' for distinct side q.
+    function side_text(q) result(s)
+      integer, intent(in) :: q
+      character(len=:), allocatable :: s
+      s = 'from (' // rtoa(mesh%xy(1, ux(q))) // ', ' // rtoa(mesh%xy(2, ux(q))) // ') to (' // &
+        rtoa(mesh%xy(1, uy(q))) // ', ' // rtoa(mesh%xy(2, uy(q))) // ')'
+    end function side_text
+  end subroutine mesh_mark_boundary
 end module dualsig_mesh_io

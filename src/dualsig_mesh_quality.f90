@@ -5,6 +5,14 @@
 !> the alpha of a mesh; for beta, `max_tri_side_ratio` is the worst ratio longest/shortest
 !> side inside one triangle (shape regularity) and `global_side_ratio` = h / h_min the ratio
 !> between any two sides of the whole mesh (quasi-uniformity).
+!>
+!> Flags.  A single mesh cannot violate a property of a family, but it can be far from what
+!> the analysis assumes; `mesh_quality` flags (and `mesh_quality_report` prints):
+!> - `flag_small_angle`: an angle below alpha (default quality_alpha_deg);
+!> - `flag_shape`: a triangle whose longest / shortest side exceeds beta (default
+!>   quality_beta), i.e. a needle or a flat triangle;
+!> - `flag_graded`: h / h_min above quality_grading (not quasi-uniform, a strongly graded mesh).
+!> `flagged` is true when any of them is set.
 module dualsig_mesh_quality
   use dualsig_kinds, only: dp, pi
   use dualsig_mesh, only: mesh_t, mesh_triangle_area
@@ -12,6 +20,13 @@ module dualsig_mesh_quality
   private
 
   public :: mesh_quality_t, mesh_quality, mesh_quality_report
+  public :: quality_alpha_deg, quality_beta, quality_grading
+
+  !> Default flag thresholds: smallest acceptable angle (degrees), largest acceptable ratio
+  !> longest / shortest side inside one triangle, largest acceptable h / h_min.
+  real(dp), parameter :: quality_alpha_deg = 5.0_dp
+  real(dp), parameter :: quality_beta = 10.0_dp
+  real(dp), parameter :: quality_grading = 100.0_dp
 
   type :: mesh_quality_t
     integer :: nnode = 0                       !! number of nodes
@@ -29,14 +44,23 @@ module dualsig_mesh_quality
     real(dp) :: global_side_ratio = 0.0_dp     !! h / h_min: ratio of the longest to the shortest side
     real(dp) :: area = 0.0_dp                  !! total area (sum of the signed triangle areas)
     real(dp) :: min_tri_area = 0.0_dp          !! smallest signed triangle area
+    real(dp) :: alpha_deg = quality_alpha_deg  !! threshold used for flag_small_angle
+    real(dp) :: beta = quality_beta            !! threshold used for flag_shape
+    real(dp) :: grading = quality_grading      !! threshold used for flag_graded
+    logical :: flag_small_angle = .false.      !! min_angle_deg < alpha_deg
+    logical :: flag_shape = .false.            !! max_tri_side_ratio > beta
+    logical :: flag_graded = .false.           !! global_side_ratio > grading
+    logical :: flagged = .false.               !! any of the three flags
   end type mesh_quality_t
 
 contains
 
-  !> Counts, mesh size, side ratios, extreme angles and area of `mesh`.  Degenerate sides
-  !> (zero length) give the ratios the value huge(1.0_dp).
-  function mesh_quality(mesh) result(q)
+  !> Counts, mesh size, side ratios, extreme angles, area and flags of `mesh`.  Degenerate
+  !> sides (zero length) give the ratios the value huge(1.0_dp).  alpha_deg, beta, grading
+  !> (optional) replace the default flag thresholds of the module header.
+  function mesh_quality(mesh, alpha_deg, beta, grading) result(q)
     type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in), optional :: alpha_deg, beta, grading
     type(mesh_quality_t) :: q
     integer :: t, k
     real(dp) :: p(2, 3), d(2, 3), side(3), ang, a, longest, shortest
@@ -46,6 +70,9 @@ contains
     q%nedge = mesh%nedge
     q%nbedge = mesh%nbedge
     q%nloop = mesh%nloop
+    if (present(alpha_deg)) q%alpha_deg = alpha_deg
+    if (present(beta)) q%beta = beta
+    if (present(grading)) q%grading = grading
     if (allocated(mesh%node_on_boundary)) q%nbnode = count(mesh%node_on_boundary)
     if (allocated(mesh%node_is_corner)) q%ncorner = count(mesh%node_is_corner)
     if (mesh%ntri < 1) return
@@ -79,6 +106,10 @@ contains
       q%min_tri_area = min(q%min_tri_area, a)
     end do
     q%global_side_ratio = side_ratio(q%h, q%h_min)
+    q%flag_small_angle = q%min_angle_deg < q%alpha_deg
+    q%flag_shape = q%max_tri_side_ratio > q%beta
+    q%flag_graded = q%global_side_ratio > q%grading
+    q%flagged = q%flag_small_angle .or. q%flag_shape .or. q%flag_graded
   end function mesh_quality
 
   !> Write a short human-readable summary of `q` to `unit`.  Write errors are ignored:
@@ -101,6 +132,14 @@ contains
       '  max longest/shortest side in one triangle ', q%max_tri_side_ratio
     write (unit, '(a,es22.15,a,es12.5)', iostat=ios, iomsg=iom) '  area ', q%area, &
       ', smallest triangle area ', q%min_tri_area
+    if (q%flag_small_angle) write (unit, '(a,f9.4,a,f6.2,a)', iostat=ios, iomsg=iom) &
+      '  FLAG small angle: ', q%min_angle_deg, ' degrees < alpha = ', q%alpha_deg, &
+      ' (the alpha-beta regularity of the analysis is violated)'
+    if (q%flag_shape) write (unit, '(a,es10.3,a,es10.3,a)', iostat=ios, iomsg=iom) &
+      '  FLAG shape: longest/shortest side ', q%max_tri_side_ratio, ' > beta = ', q%beta, &
+      ' in one triangle (needle or flat triangle)'
+    if (q%flag_graded) write (unit, '(a,es10.3,a,es10.3,a)', iostat=ios, iomsg=iom) &
+      '  FLAG graded: h/h_min ', q%global_side_ratio, ' > ', q%grading, ' (not quasi-uniform)'
   end subroutine mesh_quality_report
 
   !> Ratio long / short, huge(1.0_dp) for a zero-length short side.
