@@ -32,12 +32,14 @@ program dualsig_bench
   use dualsig_sparse, only: csr_t
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free, cholesky_solve
   use dualsig_assembly_dual_p1, only: assemble_dual_p1
-  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
+  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve, dual_p1_ordering
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
-  use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve
+  use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve, &
+                                    edge_end_ordering
   use dualsig_estimate_dual_p2, only: dual_p2_error
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
-  use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_METIS
+  use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_METIS, ORDERING_GEOMETRIC
+  use dualsig_ordering_geometric, only: geometric_ordering
   use dualsig_assembly_equilibrium, only: equilibrium_map_t, equilibrium_map, equilibrium_elements, &
                                           assemble_equilibrium_global
   use dualsig_kinds, only: i8
@@ -185,19 +187,23 @@ contains
     type(dual_p2_field_t) :: field
     real(dp), allocatable :: u(:), uf(:), q(:), qf(:), x(:), bd(:)
     logical, allocatable :: is_gamma_a(:)
-    real(dp) :: t0, tp, tb, tbm, td, tdb, e0, e1, err, nlog(20), tlog(20, 3)
-    integer :: lcsv, i, p, nfit
-    integer(i8) :: nnz_amd, nnz_metis
+    real(dp) :: t0, tp, tb, tbm, tbn, td, tdb, tdba, e0, e1, err, nlog(20), tlog(20, 3)
+    integer :: lcsv, i, p, nfit, ord
+    integer, allocatable :: perm(:)
+    integer(i8) :: nnz_amd, nnz_metis, nnz_nd
     real(dp) :: fl_amd, fl_metis
     character(len=12) :: dual_name
     character(len=64) :: qp_name
     open (newunit=lcsv, file='out/bench_large_' // scene_name // '.csv', status='replace')
     write (lcsv, '(a)') 'scene,level,n,solver,seconds,iterations,factorisations,bordered,baseline_s,ratio,' // &
-      'error,residual,peak_mb,nnz_amd,nnz_metis,baseline_metis_s'
+      'error,residual,peak_mb,nnz_amd,nnz_metis,baseline_metis_s,baseline_amd_s,ratio_amd,nnz_nd'
     write (*, '(/,a)') 'dualsig_bench: work-precision and scaling, ' // scene_name // &
-      ' (grid sequencing; baseline = one AMD analyse+factorise+solve of the unconstrained matrix)'
+      ' (grid sequencing; geometric nested dissection above 3e4 unknowns, AMD below, its time included; baseline = one' // &
+      ' ordering+analyse+factorise+solve of the unconstrained matrix with the same ordering; amd = the same with AMD)'
     write (*, '(a)') '  lvl         N     solver   iters fact bord   seconds  baseline   ratio       error    residual' // &
-      '   peak MB  nnzL(amd)  nnzL(metis) metis_s'
+      '   peak MB  nnzL(amd)  nnzL(metis) metis_s   amd_s ratio_amd   nnzL(nd)'
+    d1set%ordering = ORDERING_GEOMETRIC
+    d2set%ordering = ORDERING_GEOMETRIC
     call scene_lookup(scene_name, scene, st)
     call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
     nfit = 0
@@ -217,6 +223,7 @@ contains
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
       t0 = wall()
+      call geometric_ordering(mesh%xy, sys%a, aset%ordering, aset%perm, st)
       call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st)
       tp = wall() - t0
       if (level < first_level_reported) cycle
@@ -235,6 +242,13 @@ contains
       tb = wall() - t0
       nnz_amd = chol%nnz_factor
       fl_amd = chol%flops
+      call cholesky_free(chol)
+      t0 = wall()
+      call geometric_ordering(mesh%xy, ar, ord, perm, st)
+      call cholesky_factor(ar, chol, st, ord, perm)
+      call cholesky_solve(chol, sys%load, x, st)
+      tbn = wall() - t0
+      nnz_nd = chol%nnz_factor
       call cholesky_free(chol)
       nnz_metis = 0
       tbm = 0.0_dp
@@ -255,18 +269,18 @@ contains
       call p1_error_norms(mesh, u, scene%u, scene%grad_u, tri_rule(12), e0, e1)
       err = e1
       if (scene%problem == PROBLEM_P1) err = sqrt(e0**2 + e1**2)
-      write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,2i11,f8.2)') level, mesh%nnode, 'active_set', &
-        ares%iterations, ares%factorisations, ares%lowrank_solves, tp, tb, tp / tb, err, ares%kkt_residual, &
-        peak_mb(), nnz_amd, nnz_metis, tbm
+      write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,2i11,f8.2,f8.3,f8.2,i11)') level, mesh%nnode, &
+        'active_set', ares%iterations, ares%factorisations, ares%lowrank_solves, tp, tbn, tp / tbn, err, &
+        ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
       write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,2(",",i0),' // &
-        '",",es12.4)') scene_name, level, mesh%nnode, 'active_set', tp, ares%iterations, ares%factorisations, &
-        ares%lowrank_solves, tb, tp / tb, err, ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, tbm
+        '3(",",es12.4),",",i0)') scene_name, level, mesh%nnode, 'active_set', tp, ares%iterations, ares%factorisations, &
+        ares%lowrank_solves, tbn, tp / tbn, err, ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
       flush (6)
       if (level >= first_level_fit) then
         nfit = nfit + 1
         nlog(nfit) = log(real(mesh%nnode, dp))
         tlog(nfit, 1) = log(tp)
-        tlog(nfit, 2) = log(tb)
+        tlog(nfit, 2) = log(tbn)
         tlog(nfit, 3) = 0.0_dp
       end if
       if (level > lmax_dual) cycle
@@ -276,6 +290,11 @@ contains
         call assemble_dual_p1(mesh, scene%f, tri_rule(5), ad, bd)
         t0 = wall()
         call cholesky_factor(ad, chol, st, ORDERING_AMD)
+        tdba = wall() - t0
+        call cholesky_free(chol)
+        t0 = wall()
+        call dual_p1_ordering(mesh, ad, ORDERING_GEOMETRIC, ord, perm, st)
+        call cholesky_factor(ad, chol, st, ord, perm)
         tdb = wall() - t0
         call cholesky_free(chol)
         deallocate (bd)
@@ -283,12 +302,12 @@ contains
         call dual_p1_solve(mesh, scene%f, tri_rule(5), d1set, q, d1res, st, u_primal=u)
         td = wall() - t0
         call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(12), b1, scene%x_breaks(1:scene%nbreaks))
-        write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, 2 * mesh%nnode, 'dual_p1', &
+        write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,30x,f8.3,f8.2)') level, 2 * mesh%nnode, 'dual_p1', &
           d1res%iterations, d1res%factorisations, d1res%lowrank_solves, td, tdb, td / tdb, sqrt(b1%est), &
-          d1res%residual, peak_mb()
+          d1res%residual, peak_mb(), tdba, td / tdba
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
-          '",0,0,0")') scene_name, level, 2 * mesh%nnode, 'dual_p1', td, d1res%iterations, d1res%factorisations, &
-          d1res%lowrank_solves, tdb, td / tdb, sqrt(b1%est), d1res%residual, peak_mb()
+          '",0,0,0",2(",",es12.4),",0")') scene_name, level, 2 * mesh%nnode, 'dual_p1', td, d1res%iterations, &
+          d1res%factorisations, d1res%lowrank_solves, tdb, td / tdb, sqrt(b1%est), d1res%residual, peak_mb(), tdba, td / tdba
       else
         is_gamma_a = mesh%bedge_marker == 1
         t0 = wall()
@@ -303,14 +322,22 @@ contains
         end block
         t0 = wall()
         call cholesky_factor(ad, chol, st, ORDERING_AMD)
+        tdba = wall() - t0
+        call cholesky_free(chol)
+        t0 = wall()
+        call edge_end_ordering(mesh, ad, ord, perm, st)
+        call cholesky_factor(ad, chol, st, ord, perm)
         tdb = wall() - t0
         call cholesky_free(chol)
-        write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, ad%n, 'dual_p2', d2res%iterations, &
-          d2res%factorisations, 0, td, tdb, td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), &
-          d2res%defect, peak_mb()
+        write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,30x,f8.3,f8.2)') level, ad%n, 'dual_p2', &
+          d2res%iterations, d2res%factorisations, 0, td, tdb, td / tdb, &
+          dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect, peak_mb(), tdba, td / tdba
+        write (*, '(a,4f8.3,a)') '       profile of the dual solve (s): particular field, elements, loads, solver =', &
+          d2res%seconds_particular, d2res%seconds_elements, d2res%seconds_loads, d2res%seconds_solver
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
-          '",0,0,0")') scene_name, level, ad%n, 'dual_p2', td, d2res%iterations, d2res%factorisations, 0, tdb, &
-          td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect, peak_mb()
+          '",0,0,0",2(",",es12.4),",0")') scene_name, level, ad%n, 'dual_p2', td, d2res%iterations, d2res%factorisations, &
+          0, tdb, td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect, peak_mb(), &
+          tdba, td / tdba
       end if
       if (level >= first_level_fit) tlog(nfit, 3) = log(td)
       flush (6)

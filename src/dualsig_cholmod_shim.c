@@ -66,8 +66,8 @@ typedef struct {
 } dschol_handle;
 
 int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const double *val,
-                        int ordering, void **handle, long *nnz_factor, double *flops,
-                        int *ordering_used, int *minor);
+                        int ordering, const int *perm, void **handle, long *nnz_factor,
+                        double *flops, int *ordering_used, int *minor);
 int dualsig_chol_refactor(void *handle, const double *val);
 int dualsig_chol_solve(void *handle, int nrhs, const double *b, double *x);
 int dualsig_chol_minor(const void *handle);
@@ -126,7 +126,9 @@ static int factorize(dschol_handle *h)
  * Analyse and factorise the n x n symmetric matrix given in 0-based CSC form
  * (colptr[0..n], rowind[0..nnz-1], val[0..nnz-1], nnz = colptr[n]); only the entries with
  * rowind <= column are used.  ordering: 0 best of AMD and METIS (least nnz(L)), 1 AMD,
- * 2 METIS (CHOLMOD falls back to AMD if METIS fails), 3 natural.
+ * 2 METIS (CHOLMOD falls back to AMD if METIS fails), 3 natural, 7 given: perm[0..n-1]
+ * (0-based, a permutation; NULL for the other orderings) is the elimination order, which
+ * CHOLMOD post-orders.
  *
  * Outputs (all set, also on failure where known):
  *   *handle         the new handle, NULL on any failure (everything is freed then)
@@ -140,8 +142,8 @@ static int factorize(dschol_handle *h)
  *                   matrix when not positive definite, -1 when no factorisation ran
  */
 int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const double *val,
-                        int ordering, void **handle, long *nnz_factor, double *flops,
-                        int *ordering_used, int *minor)
+                        int ordering, const int *perm, void **handle, long *nnz_factor,
+                        double *flops, int *ordering_used, int *minor)
 {
     dschol_handle *h;
     fenv_t env;
@@ -159,8 +161,21 @@ int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const doubl
     *minor = -1;
 
     /* validate the pattern: colptr[0] = 0, nondecreasing, rows in [0, n) */
-    if (n < 0 || colptr == NULL || ordering < DSCHOL_ORD_BEST || ordering > DSCHOL_ORD_NATURAL)
+    if (n < 0 || colptr == NULL) return DSCHOL_ERR_INPUT;
+    if (ordering == DSCHOL_ORD_GIVEN) {
+        /* a permutation of 0..n-1 */
+        char *seen;
+        if (perm == NULL) return DSCHOL_ERR_INPUT;
+        seen = calloc((size_t) n + 1, 1);
+        if (seen == NULL) return DSCHOL_ERR_NOMEM;
+        for (j = 0; j < n; j++) {
+            if (perm[j] < 0 || perm[j] >= n || seen[perm[j]]) { free(seen); return DSCHOL_ERR_INPUT; }
+            seen[perm[j]] = 1;
+        }
+        free(seen);
+    } else if (ordering < DSCHOL_ORD_BEST || ordering > DSCHOL_ORD_NATURAL) {
         return DSCHOL_ERR_INPUT;
+    }
     if (colptr[0] != 0) return DSCHOL_ERR_INPUT;
     for (j = 0; j < n; j++)
         if (colptr[j + 1] < colptr[j]) return DSCHOL_ERR_INPUT;
@@ -198,6 +213,10 @@ int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const doubl
         h->c.nmethods = 1;
         h->c.method[0].ordering = CHOLMOD_METIS;
         break;
+    case DSCHOL_ORD_GIVEN:
+        h->c.nmethods = 1;
+        h->c.method[0].ordering = CHOLMOD_GIVEN;  /* post-ordered (postorder = 1) */
+        break;
     default:
         h->c.nmethods = 1;
         h->c.method[0].ordering = CHOLMOD_NATURAL;
@@ -219,7 +238,10 @@ int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const doubl
     }
 
     feholdexcept(&env);
-    h->L = cholmod_analyze(h->A, &h->c);
+    if (ordering == DSCHOL_ORD_GIVEN)
+        h->L = cholmod_analyze_p(h->A, (int *) perm, NULL, 0, &h->c);
+    else
+        h->L = cholmod_analyze(h->A, &h->c);
     fesetenv(&env);
     if (h->L == NULL || h->c.status < CHOLMOD_OK) return fail(h, map_failure(h->c.status));
     *nnz_factor = (long) h->c.lnz;

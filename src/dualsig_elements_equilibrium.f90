@@ -49,47 +49,55 @@ contains
     end do
   end subroutine equilibrium_sides
 
-  !> C_e (w = C_e beta), from the printed C_e^{-1} by LAPACK dgesv.
-  subroutine equilibrium_c_matrix(xy, c, st)
+  !> C_e (w = C_e beta), in closed form.  The printed C_e^{-1} is block diagonal: the two
+  !> parameters of vertex a_v are q(a_v) . nu of its two sides, so C_e^{-1} =
+  !> blockdiag(N_1, N_2, N_3) with N_v the 2 x 2 matrix whose rows are those normals, and
+  !> C_e = blockdiag(N_1^{-1}, N_2^{-1}, N_3^{-1}).  det N_v is the sine of the angle between
+  !> the two normals (the interior angle at a_v): zero only for a degenerate triangle.
+  pure subroutine equilibrium_c_matrix(xy, c, st)
     real(dp), intent(in) :: xy(2, 3)
     real(dp), intent(out) :: c(6, 6)
     type(status_t), intent(out) :: st
-    real(dp) :: cinv(6, 6), nu(2, 3), l(3)
-    integer :: ipiv(6), info, k
-    external :: dgesv
+    real(dp) :: nu(2, 3), l(3), n(2, 2), det
+    integer :: v, k1, k2
     call equilibrium_sides(xy, nu, l)
-    cinv = 0.0_dp
-    do k = 1, 6
-      ! row k: beta_k = q(a_v) . nu^(s); q(a_v) occupies columns 2v-1, 2v
-      cinv(k, 2 * param_vertex(k) - 1:2 * param_vertex(k)) = nu(:, param_side(k))
-    end do
     c = 0.0_dp
-    do k = 1, 6
-      c(k, k) = 1.0_dp
+    do v = 1, 3
+      k1 = 2 * v - 1                         ! parameters 2v-1, 2v belong to vertex v
+      k2 = 2 * v
+      n(1, :) = nu(:, param_side(k1))
+      n(2, :) = nu(:, param_side(k2))
+      det = n(1, 1) * n(2, 2) - n(1, 2) * n(2, 1)
+      if (.not. abs(det) > 0.0_dp) then
+        call set_error(st, DS_ERR_LAPACK, 'equilibrium element: C_e^{-1} is singular at vertex ' // &
+          itoa(v) // ' (parallel sides): degenerate triangle')
+        return
+      end if
+      ! rows 2v-1, 2v of w (the components of q(a_v)) from beta_{2v-1}, beta_{2v}
+      c(k1, k1) = n(2, 2) / det
+      c(k1, k2) = -n(1, 2) / det
+      c(k2, k1) = -n(2, 1) / det
+      c(k2, k2) = n(1, 1) / det
     end do
-    call dgesv(6, 6, cinv, 6, ipiv, c, 6, info)
-    if (info /= 0) then
-      call set_error(st, DS_ERR_LAPACK, 'equilibrium element: C_e^{-1} is singular (dgesv info = ' // &
-        itoa(info) // '): degenerate triangle')
-    end if
   end subroutine equilibrium_c_matrix
 
-  !> A_e = C_e^T kron(M_e, I_2) C_e: beta^T A_e beta = int_T |q|^2  (4.6).
+  !> A_e = C_e^T kron(M_e, I_2) C_e: beta^T A_e beta = int_T |q|^2  (4.6).  With C_e block
+  !> diagonal (2 x 2 blocks C_v), block (v, w) of A_e is M_e(v, w) C_v^T C_w.
   pure subroutine equilibrium_element_matrix(xy, c, ae)
     real(dp), intent(in) :: xy(2, 3), c(6, 6)
     real(dp), intent(out) :: ae(6, 6)
-    real(dp) :: me(3, 3), m2(6, 6)
-    integer :: a, b
+    real(dp) :: me(3, 3), g(2, 2)
+    integer :: v, w, iv, iw
     call p1_element_mass(xy, me)
-    m2 = 0.0_dp
-    do a = 1, 3
-      do b = 1, 3
-        m2(2 * a - 1, 2 * b - 1) = me(a, b)
-        m2(2 * a, 2 * b) = me(a, b)
+    do w = 1, 3
+      iw = 2 * w - 1
+      do v = 1, w
+        iv = 2 * v - 1
+        g = matmul(transpose(c(iv:iv + 1, iv:iv + 1)), c(iw:iw + 1, iw:iw + 1))
+        ae(iv:iv + 1, iw:iw + 1) = me(v, w) * g
+        ae(iw:iw + 1, iv:iv + 1) = me(v, w) * transpose(g)    ! exact symmetry for the Cholesky factor
       end do
     end do
-    ae = matmul(transpose(c), matmul(m2, c))
-    ae = 0.5_dp * (ae + transpose(ae))           ! exact symmetry for the Cholesky factor
   end subroutine equilibrium_element_matrix
 
   !> Coefficients of the divergence condition (4.9): d . beta = int_{dT} q.nu = |T| div q.

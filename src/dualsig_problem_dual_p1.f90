@@ -28,7 +28,8 @@ module dualsig_problem_dual_p1
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_from_triplets
   use dualsig_quadrature, only: tri_rule_t
-  use dualsig_sparse_direct, only: ORDERING_AMD
+  use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GEOMETRIC
+  use dualsig_ordering_geometric, only: geometric_ordering
   use dualsig_spd_solver, only: cholmod_spd_t
   use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER
   use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve, ROW_INEQUALITY
@@ -40,7 +41,7 @@ module dualsig_problem_dual_p1
   private
 
   public :: dual_p1_transforms, dual_p1_constraint_rows, dual_p1_nodewise, &
-            dual_p1_feasible_q, dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
+            dual_p1_feasible_q, dual_p1_settings_t, dual_p1_result_t, dual_p1_solve, dual_p1_ordering
 
   type :: dual_p1_settings_t
     character(len=16) :: method = 'active_set'   !! 'active_set' or 'uzawa'
@@ -98,7 +99,8 @@ contains
     type(uzawa_result_t) :: ures
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
-    integer :: i
+    integer :: i, ord
+    integer, allocatable :: perm(:)
 
     call dual_p1_transforms(mesh, t, tinv, kind, st)
     if (st%code /= 0) return
@@ -107,7 +109,9 @@ contains
     select case (trim(settings%method))
     case ('uzawa')
       call assemble_dual_p1(mesh, f, rule, a, b)
-      call chol%factor(a, st, settings%ordering)
+      call dual_p1_ordering(mesh, a, settings%ordering, ord, perm, st)
+      if (st%code /= 0) return
+      call chol%factor(a, st, ord, perm)
       if (st%code /= 0) return
       res%factorisations = 1
       res%nnz_factor = chol%chol%nnz_factor
@@ -145,7 +149,8 @@ contains
         where (kind == BOUND_LOWER) s = max(s, 0.0_dp)
       end if
       aset%max_iter = settings%max_iter
-      aset%ordering = settings%ordering
+      call dual_p1_ordering(mesh, a, settings%ordering, aset%ordering, aset%perm, st)
+      if (st%code /= 0) return
       call active_set_solve(a, b, kind, zero, s, aset, ares, st)
       if (.not. is_ok(st)) return
       res%iterations = ares%iterations
@@ -261,4 +266,25 @@ contains
     where (kind == BOUND_LOWER) s = max(s, 0.0_dp)
     call dual_p1_nodewise(t, s, qf)
   end subroutine dual_p1_feasible_q
+
+  !> The CHOLMOD ordering for the dual unknowns: `ordering` itself, or for ORDERING_GEOMETRIC
+  !> the choice of geometric_ordering (nested dissection, both unknowns of node i at its point).
+  subroutine dual_p1_ordering(mesh, a, ordering, ord, perm, st)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: ordering
+    integer, intent(out) :: ord
+    integer, allocatable, intent(out) :: perm(:)
+    type(status_t), intent(out) :: st
+    real(dp), allocatable :: xy(:,:)
+    integer :: i
+    ord = ordering
+    if (ordering /= ORDERING_GEOMETRIC) return
+    allocate (xy(2, 2 * mesh%nnode))
+    do i = 1, mesh%nnode
+      xy(:, 2 * i - 1) = mesh%xy(:, i)
+      xy(:, 2 * i) = mesh%xy(:, i)
+    end do
+    call geometric_ordering(xy, a, ord, perm, st)
+  end subroutine dual_p1_ordering
 end module dualsig_problem_dual_p1

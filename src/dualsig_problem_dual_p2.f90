@@ -22,7 +22,8 @@ module dualsig_problem_dual_p2
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_matvec
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
-  use dualsig_sparse_direct, only: ORDERING_BEST
+  use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GEOMETRIC
+  use dualsig_ordering_geometric, only: geometric_ordering
   use dualsig_spd_solver, only: block_diag_spd_t
   use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER
   use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
@@ -38,7 +39,7 @@ module dualsig_problem_dual_p2
   implicit none
   private
 
-  public :: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve, dual_p2_lambda, &
+  public :: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve, dual_p2_lambda, edge_end_ordering, &
             dual_p2_check_assumptions
 
   !> Degree of the quadrature for the element loads b_e.  lambda^f is not a polynomial;
@@ -53,7 +54,7 @@ module dualsig_problem_dual_p2
     integer :: max_iter = 20000                !! Uzawa iterations
     real(dp) :: penalty = 0.0_dp               !! augmented Lagrangian r, 0 = automatic
     real(dp) :: defect_tol = 1.0e-13_dp        !! augmented: relative divergence defect
-    integer :: ordering = ORDERING_BEST
+    integer :: ordering = ORDERING_AMD          !! CHOLMOD ordering (AMD: cheapest analysis, see README "Performance")
   end type dual_p2_settings_t
 
   type :: dual_p2_result_t
@@ -69,6 +70,11 @@ module dualsig_problem_dual_p2
     character(len=8) :: ordering = ''
     integer :: nconstraints = 0
     integer :: nactive = 0
+    ! wall-clock profile of the solve (seconds)
+    real(dp) :: seconds_particular = 0.0_dp  !! particular field lambda^f (g_h, stream function on Gamma_a)
+    real(dp) :: seconds_elements = 0.0_dp    !! C_e, A_e, divergence rows
+    real(dp) :: seconds_loads = 0.0_dp       !! element loads b_e (lambda^f at the quadrature points)
+    real(dp) :: seconds_solver = 0.0_dp      !! global assembly and the solver (factorisations included)
   end type dual_p2_result_t
 
   type :: dual_p2_field_t
@@ -127,13 +133,17 @@ contains
     type(uzawa_settings_t) :: uset
     type(uzawa_result_t) :: ures
     integer :: t, k
+    real(dp) :: t0
 
     call dual_p2_check_assumptions(mesh, is_gamma_a, st)
     if (st%code /= 0) return
+    t0 = wall_seconds()
     call particular_field_build(mesh, f, x_start, is_gamma_a, field%pf, st, breaks)
     if (.not. is_ok(st)) return
+    res%seconds_particular = lap(t0)
     call equilibrium_elements(mesh, field%c, ae, d, st)
     if (st%code /= 0) return
+    res%seconds_elements = lap(t0)
     ! element loads b_e = -C_e^T int lambda^f . Phi  (4.7)
     rule = tri_rule(load_degree)
     allocate (be(6, mesh%ntri))
@@ -146,6 +156,7 @@ contains
       end do
       call equilibrium_element_load(field%c(:, :, t), tp, lam, be(:, t))
     end do
+    res%seconds_loads = lap(t0)
     call equilibrium_map(mesh, map)
     call equilibrium_gamma_a_dofs(mesh, is_gamma_a, field%pf%gh, on_gamma_a, bnd)
     allocate (field%beta(6, mesh%ntri), x(2 * mesh%nedge))
@@ -164,6 +175,10 @@ contains
       aug%r = settings%penalty
       aug%tol = settings%defect_tol
       aug%ordering = settings%ordering
+      if (settings%ordering == ORDERING_GEOMETRIC) then
+        call edge_end_ordering(mesh, a, aug%ordering, aug%perm, st)
+        if (st%code /= 0) return
+      end if
       call augmented_solve(a, bx, dmat, kind, bnd, x, aug, ares, st)
       if (.not. is_ok(st)) return
       res%iterations = ares%outer
@@ -201,7 +216,46 @@ contains
     end select
     call equilibrium_to_local(map, x, field%beta)
     res%defect = divergence_defect(d, field%beta)
+    res%seconds_solver = lap(t0)
   end subroutine dual_p2_solve
+
+  !> The ordering of the global edge-end fluxes chosen by geometric_ordering (nested
+  !> dissection for large meshes): unknown 2 (e - 1) + j sits at the point of edge e one
+  !> third of the way from its end node j.
+  subroutine edge_end_ordering(mesh, a, ord, perm, st)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(in) :: a
+    integer, intent(out) :: ord
+    integer, allocatable, intent(out) :: perm(:)
+    type(status_t), intent(out) :: st
+    real(dp), allocatable :: xy(:,:)
+    real(dp), parameter :: third = 1.0_dp / 3.0_dp
+    integer :: e, n1, n2
+    allocate (xy(2, 2 * mesh%nedge))
+    do e = 1, mesh%nedge
+      n1 = mesh%edge_nodes(1, e)
+      n2 = mesh%edge_nodes(2, e)
+      xy(:, 2 * e - 1) = (1.0_dp - third) * mesh%xy(:, n1) + third * mesh%xy(:, n2)
+      xy(:, 2 * e) = third * mesh%xy(:, n1) + (1.0_dp - third) * mesh%xy(:, n2)
+    end do
+    call geometric_ordering(xy, a, ord, perm, st)
+  end subroutine edge_end_ordering
+
+  !> Seconds since t0, and t0 reset to now.
+  real(dp) function lap(t0)
+    real(dp), intent(inout) :: t0
+    real(dp) :: now
+    now = wall_seconds()
+    lap = now - t0
+    t0 = now
+  end function lap
+
+  !> Wall-clock seconds from an arbitrary origin.
+  real(dp) function wall_seconds()
+    integer(i8) :: cnt, rate
+    call system_clock(cnt, rate)
+    wall_seconds = real(cnt, dp) / real(rate, dp)
+  end function wall_seconds
 
   !> Start values of the Gamma_a unknowns from the primal solution: at its bound (predicted
   !> active: lambda . nu = 0) where u > 0, above it where u = 0 (contact: positive flux).

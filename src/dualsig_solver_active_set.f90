@@ -15,11 +15,15 @@
 !>     Z = M(F1)^{-1} E_D,  C1 = Z(D, :)                                  (capacitance)
 !>     x_D = S^{-1} (b_D - B^T A_RR^{-1} b_R),  S = M(F)_DD - B^T A_RR^{-1} B,
 !>     x_R = A_RR^{-1} (b_R - B x_D),          B = M(F)_RD                 (bordering)
-!> which costs two block solves (k and k + 1 right-hand sides) with the existing factor
-!> instead of a refactorisation.  The choice is made by measured cost: bordering is used
-!> while its predicted time (from the single-solve time measured in this call) is below the
-!> time of a numeric refactorisation (timed too; the symbolic analysis is reused), and
-!> never for k > max_lowrank.
+!> The columns that depend only on the kept factor and on one changed unknown d,
+!>     z_d = M(F1)^{-1} e_d   and   y_d = M(F1)^{-1} u_d,  u_d = A(:, d) without the rows of F1,
+!> are cached in the workspace, so that B's columns follow as y_d - Z u_d(D) and A_RR^{-1}
+!> of them by the capacitance correction: an iteration costs ONE solve with the kept factor
+!> plus one block solve (2 right-hand sides per unknown) for the unknowns not seen before
+!> since the last factorisation, instead of a refactorisation.  The choice is made by
+!> measured cost: bordering is used while its predicted time (from the single-solve time
+!> measured with this factor) is below the time of a numeric refactorisation (timed too;
+!> the symbolic analysis is reused), and never for k > max_lowrank.
 !>
 !> Termination and safeguards: the method stops when the predicted set repeats (the KKT
 !> conditions then hold to the accuracy of the solve).  A set seen before (a cycle) or the
@@ -44,6 +48,7 @@ module dualsig_solver_active_set
   type :: active_set_settings_t
     integer :: max_iter = 100            !! maximum number of active-set changes
     integer :: ordering = ORDERING_AMD   !! fill-reducing ordering (dualsig_sparse_direct)
+    integer, allocatable :: perm(:)      !! the elimination order when ordering = ORDERING_GIVEN
     integer :: max_lowrank = 24          !! largest change handled by bordering (0: always refactorise)
     logical :: lowrank_by_cost = .true.  !! choose bordering by measured cost (.false.: whenever k <= max_lowrank)
     real(dp) :: fallback_tol = 1.0e-10_dp    !! KKT tolerance of the projected-SOR fallback
@@ -70,6 +75,12 @@ module dualsig_solver_active_set
     type(cholesky_t) :: chol
     type(csr_t) :: ar                          !! the reduced matrix of `fixed`
     logical, allocatable :: fixed(:)
+    real(dp) :: t_solve = -1.0_dp              !! measured seconds of one solve with the kept factor (< 0: not yet)
+    real(dp) :: t_refactor = -1.0_dp           !! measured (or estimated) seconds of a numeric refactorisation
+    ! bordering cache (valid for the kept factor): z_d and y_d of the unknowns idx(1:ncache)
+    integer :: ncache = 0
+    integer, allocatable :: cache_idx(:)
+    real(dp), allocatable :: cache_z(:,:), cache_y(:,:)
   end type active_set_workspace_t
 
   !> Sets remembered for cycle detection.
@@ -90,6 +101,10 @@ contains
     type(active_set_workspace_t), intent(inout) :: ws
     call cholesky_free(ws%chol)
     ws%have_factor = .false.
+    ws%t_solve = -1.0_dp
+    ws%t_refactor = -1.0_dp
+    ws%ncache = 0
+    if (allocated(ws%cache_z)) deallocate (ws%cache_z, ws%cache_y, ws%cache_idx)
   end subroutine active_set_workspace_free
 
   !> Solve from the start x (which predicts the first active set); x returns the solution.
@@ -110,7 +125,7 @@ contains
     real(dp), allocatable :: g(:), rhs(:), xb(:)
     integer(i8) :: hist(3, history_len)
     integer :: it, nhist, k
-    logical :: cycled
+    logical :: cycled, had_factor, border
     real(dp) :: t_solve, t_refactor, t0
 
     if (present(ws)) then
@@ -130,8 +145,9 @@ contains
     if (.not. w%have_factor) w%ar = a
     nhist = 0
     cycled = .false.
-    t_solve = -1.0_dp           ! unknown until measured
-    t_refactor = -1.0_dp
+    ! costs measured in earlier calls with the same kept factor (unknown until measured)
+    t_solve = merge(w%t_solve, -1.0_dp, w%have_factor)
+    t_refactor = merge(w%t_refactor, -1.0_dp, w%have_factor)
     do it = 1, settings%max_iter
       ! right-hand side of the reduced system: bound values moved to the right
       xb = 0.0_dp
@@ -140,20 +156,29 @@ contains
       rhs = f - rhs
       where (fixed) rhs = bnd
       k = -1
-      if (w%have_factor) k = count(w%fixed .neqv. fixed)
+      border = .false.
+      if (w%have_factor) then
+        k = count(w%fixed .neqv. fixed)
+        if (k > 0) border = bordering_pays(k, uncached_count(w, fixed))
+      end if
       if (k == 0) then
         t0 = wall_seconds()
         call cholesky_solve(w%chol, rhs, x, st)
         t_solve = wall_seconds() - t0
-      else if (k > 0 .and. bordering_pays(k)) then
-        call bordered_solve(a, w, fixed, rhs, x, st)
+      else if (border) then
+        call bordered_solve(a, w, settings%max_lowrank, fixed, rhs, x, st)
         res%lowrank_solves = res%lowrank_solves + 1
       else
+        had_factor = w%have_factor
         t0 = wall_seconds()
         call factor_reduced(fixed)
         if (st%code /= 0) exit
-        if (res%factorisations > 1) t_refactor = wall_seconds() - t0
-        if (t_refactor < 0.0_dp) t_refactor = refactor_share * (wall_seconds() - t0)
+        ! a numeric refactorisation is timed; a first factorisation (with its analysis) estimates it
+        if (had_factor) then
+          t_refactor = wall_seconds() - t0
+        else if (t_refactor < 0.0_dp) then
+          t_refactor = refactor_share * (wall_seconds() - t0)
+        end if
         t0 = wall_seconds()
         call cholesky_solve(w%chol, rhs, x, st)
         t_solve = wall_seconds() - t0
@@ -175,6 +200,8 @@ contains
     end do
     res%nnz_factor = w%chol%nnz_factor
     res%ordering = w%chol%ordering
+    w%t_solve = t_solve
+    w%t_refactor = t_refactor
     if (.not. present(ws)) call active_set_workspace_free(local)
     if (st%code /= 0) return
     where (kind == BOUND_LOWER) x = max(x, bnd)
@@ -186,10 +213,11 @@ contains
 
   contains
 
-    !> Bordering with k changed unknowns (2k + 2 solves) is predicted cheaper than a numeric
-    !> refactorisation; before anything was timed, only small k are bordered.
-    logical function bordering_pays(k)
-      integer, intent(in) :: k
+    !> Bordering with k changed unknowns, `fresh` of them not cached (one solve plus a block
+    !> solve with 2 fresh right-hand sides), is predicted cheaper than a numeric
+    !> refactorisation and its solve; before anything was timed, only small k are bordered.
+    logical function bordering_pays(k, fresh)
+      integer, intent(in) :: k, fresh
       if (k > settings%max_lowrank) then
         bordering_pays = .false.
       else if (.not. settings%lowrank_by_cost) then
@@ -197,8 +225,9 @@ contains
       else if (t_solve < 0.0_dp .or. t_refactor < 0.0_dp) then
         bordering_pays = k <= untimed_lowrank
       else
-        ! a solve with k right-hand sides costs about (1 + multi_rhs_cost k) single solves
-        bordering_pays = (2.0_dp + 2.0_dp * multi_rhs_cost * k) * t_solve < t_refactor
+        ! a solve with m right-hand sides costs about (1 + multi_rhs_cost m) single solves
+        bordering_pays = (1.0_dp + merge(1.0_dp + 2.0_dp * multi_rhs_cost * fresh, 0.0_dp, fresh > 0)) * t_solve &
+                         < t_refactor + t_solve
       end if
     end function bordering_pays
 
@@ -220,13 +249,14 @@ contains
       logical, intent(in) :: held(:)
       call reduced_values(a, held, w%ar)
       if (.not. w%have_factor) then
-        call cholesky_factor(w%ar, w%chol, st, settings%ordering)
+        call cholesky_factor(w%ar, w%chol, st, settings%ordering, settings%perm)
       else
         call cholesky_refactor(w%ar, w%chol, st)
       end if
       if (st%code /= 0) return
       w%have_factor = .true.
       w%fixed = held
+      w%ncache = 0                       ! the cached columns belonged to the old factor
       res%factorisations = res%factorisations + 1
     end subroutine factor_reduced
 
@@ -304,86 +334,176 @@ contains
     end do
   end subroutine reduced_values
 
-  !> x = M(held)^{-1} b by bordering on the kept factor of M(w%fixed) (see the module
-  !> header); D = the unknowns whose held status differs.
-  subroutine bordered_solve(a, w, held, b, x, st)
-    type(csr_t), intent(in) :: a
+  !> Number of unknowns whose held status differs from the kept factor's and whose columns
+  !> are not cached yet.
+  integer function uncached_count(w, held) result(nfresh)
     type(active_set_workspace_t), intent(in) :: w
+    logical, intent(in) :: held(:)
+    integer :: i
+    nfresh = 0
+    do i = 1, size(held)
+      if (w%fixed(i) .neqv. held(i)) then
+        if (cache_position(w, i) == 0) nfresh = nfresh + 1
+      end if
+    end do
+  end function uncached_count
+
+  !> Position of unknown i in the bordering cache (0: not cached).
+  pure integer function cache_position(w, i) result(pos)
+    type(active_set_workspace_t), intent(in) :: w
+    integer, intent(in) :: i
+    integer :: j
+    pos = 0
+    do j = 1, w%ncache
+      if (w%cache_idx(j) == i) then
+        pos = j
+        return
+      end if
+    end do
+  end function cache_position
+
+  !> Make z_d = M1^{-1} e_d and y_d = M1^{-1} u_d (u_d = column d of a without the rows held
+  !> in the kept factor) available for every d of `d`, with one block solve for the new ones.
+  !> Cached unknowns no longer in d are dropped when room is needed (capacity max_lowrank).
+  subroutine cache_columns(a, w, d, capacity, st)
+    type(csr_t), intent(in) :: a
+    type(active_set_workspace_t), intent(inout) :: w
+    integer, intent(in) :: d(:), capacity
+    type(status_t), intent(out) :: st
+    integer, allocatable :: fresh(:)
+    real(dp), allocatable :: rhs(:,:), sol(:,:)
+    integer :: n, j, p, m, keep
+    n = a%n
+    if (.not. allocated(w%cache_z)) then
+      allocate (w%cache_idx(capacity), w%cache_z(n, capacity), w%cache_y(n, capacity))
+      w%ncache = 0
+    end if
+    fresh = pack(d, [(cache_position(w, d(j)) == 0, j=1, size(d))])
+    m = size(fresh)
+    if (m == 0) return
+    if (w%ncache + m > capacity) then
+      ! keep only the cached unknowns that are still changed
+      keep = 0
+      do j = 1, w%ncache
+        if (any(d == w%cache_idx(j))) then
+          keep = keep + 1
+          w%cache_idx(keep) = w%cache_idx(j)
+          w%cache_z(:, keep) = w%cache_z(:, j)
+          w%cache_y(:, keep) = w%cache_y(:, j)
+        end if
+      end do
+      w%ncache = keep
+    end if
+    allocate (rhs(n, 2 * m), sol(n, 2 * m))
+    rhs = 0.0_dp
+    do j = 1, m
+      rhs(fresh(j), j) = 1.0_dp
+      do p = a%rowptr(fresh(j)), a%rowptr(fresh(j) + 1) - 1      ! a symmetric: column = row
+        if (.not. w%fixed(a%col(p))) rhs(a%col(p), m + j) = a%val(p)
+      end do
+    end do
+    call cholesky_solve(w%chol, rhs, sol, st)
+    if (st%code /= 0) return
+    do j = 1, m
+      w%ncache = w%ncache + 1
+      w%cache_idx(w%ncache) = fresh(j)
+      w%cache_z(:, w%ncache) = sol(:, j)
+      w%cache_y(:, w%ncache) = sol(:, m + j)
+    end do
+  end subroutine cache_columns
+
+  !> x = M(held)^{-1} b by bordering on the kept factor of M(F1), F1 = w%fixed (see the
+  !> module header); D = the k unknowns whose held status differs, R = the others not held.
+  !> With Z = M1^{-1} E_D, C1 = Z(D, :) and, for r zero on D, A_RR^{-1} r = [s - Z C1^{-1} s(D)]_R
+  !> with s = M1^{-1} r:
+  !>   B(:, j) = u_dj with the rows of D removed (0 when d_j is held), so M1^{-1} B(:, j) =
+  !>   y_dj - Z u_dj(D);  M1^{-1} b_R = M1^{-1} b - Z b(D);
+  !>   S = M(held)_DD - B^T A_RR^{-1} B,  x_D = S^{-1} (b_D - B^T A_RR^{-1} b_R),
+  !>   x_R = A_RR^{-1} b_R - A_RR^{-1} B x_D.
+  subroutine bordered_solve(a, w, capacity, held, b, x, st)
+    type(csr_t), intent(in) :: a
+    type(active_set_workspace_t), intent(inout) :: w
+    integer, intent(in) :: capacity
     logical, intent(in) :: held(:)
     real(dp), intent(in) :: b(:)
     real(dp), intent(out) :: x(:)
     type(status_t), intent(out) :: st
-    integer, allocatable :: d(:), ipiv(:)
-    real(dp), allocatable :: z(:,:), c1(:,:), bmat(:,:), g(:,:), s(:,:), rhs(:,:), xd(:)
-    integer :: n, k, j, p, i, info
+    integer, allocatable :: d(:), ipiv(:), pos(:)
+    real(dp), allocatable :: z(:,:), c1(:,:), h(:,:), t(:,:), s(:,:), xd(:), ud(:,:), y0(:)
+    integer :: n, k, j, p, i, info, r
     logical, allocatable :: in_d(:)
     external :: dgesv
     n = size(b)
     d = pack([(i, i=1, n)], w%fixed .neqv. held)
     k = size(d)
+    call cache_columns(a, w, d, capacity, st)
+    if (st%code /= 0) return
     allocate (in_d(n), source=.false.)
     in_d(d) = .true.
-    ! Z = M1^{-1} E_D and the capacitance C1 = Z(D, :)
-    allocate (rhs(n, k), z(n, k), c1(k, k))
-    rhs = 0.0_dp
+    allocate (pos(k))
     do j = 1, k
-      rhs(d(j), j) = 1.0_dp
+      pos(j) = cache_position(w, d(j))
     end do
-    call cholesky_solve(w%chol, rhs, z, st)
-    if (st%code /= 0) return
+    z = w%cache_z(:, pos)
     c1 = z(d, :)
-    ! B = M(held)(R, D), and the right-hand sides [B, b_R] for A_RR^{-1}
-    allocate (bmat(n, k + 1), g(n, k + 1))
-    bmat = 0.0_dp
-    do j = 1, k
-      if (held(d(j))) cycle                    ! a held unknown's column is e_j: no coupling
-      do p = a%rowptr(d(j)), a%rowptr(d(j) + 1) - 1
-        i = a%col(p)
-        if (in_d(i) .or. held(i)) cycle
-        bmat(i, j) = a%val(p)                    ! a symmetric: a(i, d_j) = a(d_j, i)
-      end do
-    end do
-    bmat(:, k + 1) = merge(0.0_dp, b, in_d)
-    call arr_solve(bmat, g)
-    if (st%code /= 0) return
-    ! S = M(held)_DD - B^T A_RR^{-1} B;  x_D = S^{-1} (b_D - B^T A_RR^{-1} b_R)
-    allocate (s(k, k), xd(k), ipiv(k))
+    ! u_dj(D): entries of column d_j of a in the rows of D that are not held in F1
+    allocate (ud(k, k), source=0.0_dp)
     do j = 1, k
       do i = 1, k
-        s(i, j) = m_dd(d(i), d(j)) - dot_product(bmat(:, i), g(:, j))
+        if (.not. w%fixed(d(i))) ud(i, j) = a_value(d(i), d(j))
       end do
-      xd(j) = b(d(j)) - dot_product(bmat(:, j), g(:, k + 1))
+    end do
+    ! H = [M1^{-1} B, M1^{-1} b_R]
+    allocate (y0(n), h(n, k + 1))
+    call cholesky_solve(w%chol, merge(0.0_dp, b, in_d), y0, st)
+    if (st%code /= 0) return
+    do j = 1, k
+      if (held(d(j))) then
+        h(:, j) = 0.0_dp                        ! a held unknown's column is e_j: no coupling
+      else
+        h(:, j) = w%cache_y(:, pos(j)) - matmul(z, ud(:, j))
+      end if
+    end do
+    h(:, k + 1) = y0
+    ! G = A_RR^{-1} [B, b_R] = H - Z C1^{-1} H(D, :)   (stored in h)
+    t = h(d, :)
+    allocate (ipiv(k))
+    call dgesv(k, k + 1, c1, k, ipiv, t, k, info)
+    if (info /= 0) then
+      call set_error(st, DS_ERR_LAPACK, 'active set: capacitance matrix singular (dgesv info = ' // itoa(info) // ')')
+      return
+    end if
+    h = h - matmul(z, t)
+    ! S = M(held)_DD - B^T G_B,  x_D = S^{-1} (b_D - B^T G_b); B^T v by the sparse columns
+    allocate (s(k, k), xd(k))
+    do j = 1, k
+      do i = 1, k
+        s(i, j) = m_dd(d(i), d(j)) - b_dot(i, h(:, j))
+      end do
+      xd(j) = b(d(j)) - b_dot(j, h(:, k + 1))
     end do
     call dgesv(k, 1, s, k, ipiv, xd, k, info)
     if (info /= 0) then
       call set_error(st, DS_ERR_LAPACK, 'active set: bordered system singular (dgesv info = ' // itoa(info) // ')')
       return
     end if
-    ! x_R = A_RR^{-1} b_R - A_RR^{-1} B x_D
-    x = g(:, k + 1) - matmul(g(:, 1:k), xd)
+    x = h(:, k + 1) - matmul(h(:, 1:k), xd)
     x(d) = xd
 
   contains
 
-    !> Columns of A_RR^{-1} applied to the columns of rhs2 (zero on D): y - Z C1^{-1} y(D).
-    subroutine arr_solve(rhs2, out)
-      real(dp), intent(in) :: rhs2(:,:)
-      real(dp), intent(out) :: out(:,:)
-      real(dp), allocatable :: yd(:,:), c(:,:)
-      integer, allocatable :: piv(:)
-      integer :: inf
-      call cholesky_solve(w%chol, rhs2, out, st)
-      if (st%code /= 0) return
-      yd = out(d, :)
-      c = c1
-      allocate (piv(k))
-      call dgesv(k, size(rhs2, 2), c, k, piv, yd, k, inf)
-      if (inf /= 0) then
-        call set_error(st, DS_ERR_LAPACK, 'active set: capacitance matrix singular (dgesv info = ' // itoa(inf) // ')')
-        return
-      end if
-      out = out - matmul(z, yd)
-    end subroutine arr_solve
+    !> B(:, j)^T v: column d_j of M(held) restricted to R (zero when d_j is held).
+    real(dp) function b_dot(j, v)
+      integer, intent(in) :: j
+      real(dp), intent(in) :: v(:)
+      b_dot = 0.0_dp
+      if (held(d(j))) return
+      do p = a%rowptr(d(j)), a%rowptr(d(j) + 1) - 1
+        r = a%col(p)
+        if (in_d(r) .or. held(r)) cycle
+        b_dot = b_dot + a%val(p) * v(r)
+      end do
+    end function b_dot
 
     !> The matrix entry a(i, j) (zero outside the pattern).
     real(dp) function a_value(i, j)

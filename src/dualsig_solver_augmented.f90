@@ -16,7 +16,7 @@ module dualsig_solver_augmented
   use dualsig_sparse, only: csr_t, rect_t, rect_matvec, rect_matvec_t, csr_add_block
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve, &
                                        active_set_workspace_t, active_set_workspace_free
-  use dualsig_sparse_direct, only: ORDERING_BEST
+  use dualsig_sparse_direct, only: ORDERING_AMD
   use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT
   use dualsig_strings, only: itoa, rtoa
   implicit none
@@ -29,7 +29,8 @@ module dualsig_solver_augmented
     real(dp) :: tol = 1.0e-13_dp          !! relative defect of D x = 0
     integer :: max_outer = 50
     integer :: max_active = 100           !! active-set changes per outer step
-    integer :: ordering = ORDERING_BEST
+    integer :: ordering = ORDERING_AMD
+    integer, allocatable :: perm(:)       !! the elimination order when ordering = ORDERING_GIVEN
   end type augmented_settings_t
 
   type :: augmented_result_t
@@ -98,6 +99,7 @@ contains
     allocate (w(dmat%m), rhs(a%n), absx(a%n), scale_w(dmat%m))
     aset%max_iter = settings%max_active
     aset%ordering = settings%ordering
+    if (allocated(settings%perm)) aset%perm = settings%perm
     do outer = 1, settings%max_outer
       call rect_matvec_t(dmat, mu, rhs)
       rhs = rhs + b

@@ -24,7 +24,7 @@
 !>     call cholesky_free(chol)
 module dualsig_sparse_direct
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use, intrinsic :: iso_c_binding, only: c_ptr, c_null_ptr, c_associated, c_int, c_long, c_double
+  use, intrinsic :: iso_c_binding, only: c_ptr, c_null_ptr, c_associated, c_int, c_long, c_double, c_loc
   use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_sparse, only: csr_t
@@ -33,13 +33,17 @@ module dualsig_sparse_direct
   private
 
   public :: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, cholesky_free
-  public :: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL
+  public :: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GIVEN, ORDERING_GEOMETRIC
 
   !> Fill-reducing orderings for `cholesky_factor`.
   integer, parameter :: ORDERING_BEST = 0     !! AMD and METIS both tried, the one with less fill kept
   integer, parameter :: ORDERING_AMD = 1      !! approximate minimum degree
   integer, parameter :: ORDERING_METIS = 2    !! METIS nested dissection (AMD if METIS fails)
   integer, parameter :: ORDERING_NATURAL = 3  !! no reordering
+  integer, parameter :: ORDERING_GIVEN = 7    !! the caller's permutation (e.g. geometric nested dissection), post-ordered
+  !> Not a CHOLMOD ordering: asks the problem layer (which knows the points of the unknowns)
+  !> for a geometric nested dissection (dualsig_ordering_geometric), passed on as ORDERING_GIVEN.
+  integer, parameter :: ORDERING_GEOMETRIC = 8
 
   ! Status codes of the C shim (see src/dualsig_cholmod_shim.c).
   integer(c_int), parameter :: SHIM_OK = 0, SHIM_ERR_INPUT = 1, SHIM_ERR_NOMEM = 2, &
@@ -61,13 +65,14 @@ module dualsig_sparse_direct
 
   interface
     !> See src/dualsig_cholmod_shim.c.
-    function shim_factor(n, colptr, rowind, val, ordering, handle, nnz_factor, flops, &
+    function shim_factor(n, colptr, rowind, val, ordering, perm, handle, nnz_factor, flops, &
                          ordering_used, minor) result(code) bind(c, name='dualsig_chol_factor')
       import :: c_int, c_long, c_double, c_ptr
       integer(c_int), value, intent(in) :: n
       integer(c_int), intent(in) :: colptr(*), rowind(*)
       real(c_double), intent(in) :: val(*)
       integer(c_int), value, intent(in) :: ordering
+      type(c_ptr), value, intent(in) :: perm          !! 0-based permutation or C NULL
       type(c_ptr), intent(inout) :: handle
       integer(c_long), intent(out) :: nnz_factor
       real(c_double), intent(out) :: flops
@@ -115,11 +120,14 @@ contains
   !> A factor already held by `chol` is freed first.  On failure `chol` holds no factor.
   !> Errors: DS_ERR_INPUT (bad matrix or ordering), DS_ERR_NUMERIC (not positive definite,
   !> out of memory, other CHOLMOD failure).
-  subroutine cholesky_factor(a, chol, st, ordering)
+  subroutine cholesky_factor(a, chol, st, ordering, perm)
     type(csr_t), intent(in) :: a            !! symmetric positive definite (lower triangle read)
     type(cholesky_t), intent(inout) :: chol !! the factor
     type(status_t), intent(out) :: st       !! DS_OK or an error
-    integer, intent(in), optional :: ordering !! ORDERING_BEST (default), _AMD, _METIS, _NATURAL
+    integer, intent(in), optional :: ordering !! ORDERING_BEST (default), _AMD, _METIS, _NATURAL, _GIVEN
+    integer, intent(in), optional :: perm(:)  !! ORDERING_GIVEN: perm(k) = unknown eliminated k-th (1-based)
+    integer(c_int), allocatable, target :: perm0(:)
+    type(c_ptr) :: perm_ptr
     integer(c_int), allocatable :: colptr(:), rowind(:)
     integer(c_long) :: nnz_factor
     real(c_double) :: flops
@@ -128,9 +136,22 @@ contains
     call cholesky_free(chol)
     ord = ORDERING_BEST
     if (present(ordering)) ord = int(ordering, c_int)
-    if (ord < ORDERING_BEST .or. ord > ORDERING_NATURAL) then
+    perm_ptr = c_null_ptr
+    if (ord == ORDERING_GIVEN) then
+      if (.not. present(perm)) then
+        call set_error(st, DS_ERR_INPUT, 'cholesky: ORDERING_GIVEN needs the permutation perm')
+        return
+      end if
+      if (size(perm) /= a%n) then
+        call set_error(st, DS_ERR_INPUT, 'cholesky: perm has ' // itoa(size(perm)) // ' entries, the matrix ' // &
+                       'has order ' // itoa(a%n))
+        return
+      end if
+      perm0 = int(perm - 1, c_int)
+      perm_ptr = c_loc(perm0)
+    else if (ord < ORDERING_BEST .or. ord > ORDERING_NATURAL) then
       call set_error(st, DS_ERR_INPUT, 'cholesky: unknown ordering code ' // itoa(int(ord)) // &
-                     ' (expected 0 best, 1 amd, 2 metis, 3 natural)')
+                     ' (expected 0 best, 1 amd, 2 metis, 3 natural, 7 given)')
       return
     end if
     if (.not. pattern_ok(a, st)) return
@@ -144,7 +165,7 @@ contains
     ! 0-based copies, handed over once: the C handle keeps its own
     colptr = int(a%rowptr - 1, c_int)
     rowind = int(a%col - 1, c_int)
-    code = shim_factor(int(a%n, c_int), colptr, rowind, a%val, ord, chol%handle, &
+    code = shim_factor(int(a%n, c_int), colptr, rowind, a%val, ord, perm_ptr, chol%handle, &
                        nnz_factor, flops, ord_used, minor)
     deallocate (colptr, rowind)
     if (code /= SHIM_OK) then

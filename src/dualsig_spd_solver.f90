@@ -60,12 +60,13 @@ module dualsig_spd_solver
 contains
 
   !> Factorise the sparse SPD matrix a with CHOLMOD (ordering as in dualsig_sparse_direct).
-  subroutine cholmod_factor(self, a, st, ordering)
+  subroutine cholmod_factor(self, a, st, ordering, perm)
     class(cholmod_spd_t), intent(inout) :: self
     type(csr_t), intent(in) :: a
     type(status_t), intent(out) :: st
     integer, intent(in), optional :: ordering
-    call cholesky_factor(a, self%chol, st, ordering)
+    integer, intent(in), optional :: perm(:)     !! with ORDERING_GIVEN
+    call cholesky_factor(a, self%chol, st, ordering, perm)
   end subroutine cholmod_factor
 
   subroutine cholmod_solve(self, b, x, st)
