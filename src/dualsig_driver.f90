@@ -30,7 +30,8 @@ module dualsig_driver
   use dualsig_problem_dual_p2, only: dual_p2_lambda
   use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_error
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
-  use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL
+  use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
+  use dualsig_ordering_geometric, only: geometric_ordering
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
                               table_write_text, table_write_csv, table_format_row, &
@@ -281,6 +282,8 @@ contains
     dset%rho = cfg%dual_rho
     dset%max_iter = cfg%dual_max_iter
     select case (trim(cfg%dual_ordering))
+    case ('nd')
+      dset%ordering = ORDERING_GEOMETRIC
     case ('amd')
       dset%ordering = ORDERING_AMD
     case ('metis')
@@ -327,6 +330,11 @@ contains
 
       seconds = wall_seconds()
       if (cfg%method == 'active_set') then
+        if (dset%ordering == ORDERING_GEOMETRIC) then
+          ! nested dissection from the node coordinates (large meshes), AMD otherwise
+          call geometric_ordering(mesh%xy, sys%a, aset%ordering, aset%perm, st)
+          if (st%code /= 0) return
+        end if
         call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st_solve)
         res%iterations = ares%iterations
         res%kkt_residual = ares%kkt_residual

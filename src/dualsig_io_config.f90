@@ -73,7 +73,7 @@ module dualsig_io_config
     real(dp) :: dual_tol = 1.0e-10_dp
     real(dp) :: dual_tol_h2 = 1.0e-4_dp
     integer :: dual_max_iter = 20000
-    character(len=16) :: dual_ordering = 'amd'
+    character(len=16) :: dual_ordering = 'nd'     !! every CHOLMOD factorisation of the run
   end type run_config_t
 
   type :: group_t
@@ -713,9 +713,9 @@ contains
       call set_error(st, DS_ERR_INPUT, where // '&dual tol_h2 must be >= 0')
     else if (cfg%dual_max_iter < 1) then
       call set_error(st, DS_ERR_INPUT, where // '&dual max_iter must be >= 1')
-    else if (.not. any(cfg%dual_ordering == [character(len=16) :: 'best', 'amd', 'metis', 'natural'])) then
+    else if (.not. any(cfg%dual_ordering == [character(len=16) :: 'nd', 'best', 'amd', 'metis', 'natural'])) then
       call set_error(st, DS_ERR_INPUT, where // '&dual ordering = "' // trim(cfg%dual_ordering) // &
-        '"; expected best, amd, metis or natural')
+        '"; expected nd, best, amd, metis or natural')
     end if
   end subroutine validate
 

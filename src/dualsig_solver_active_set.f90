@@ -53,6 +53,8 @@ module dualsig_solver_active_set
     logical :: lowrank_by_cost = .true.  !! choose bordering by measured cost (.false.: whenever k <= max_lowrank)
     real(dp) :: fallback_tol = 1.0e-10_dp    !! KKT tolerance of the projected-SOR fallback
     integer :: fallback_max_iter = 1000000   !! sweeps of the fallback
+    logical :: fallback = .true.         !! .false.: no projected-SOR fallback (e.g. for a badly conditioned
+                                         !! penalised matrix); a cycle or the limit is then only reported
   end type active_set_settings_t
 
   type :: active_set_result_t
@@ -206,7 +208,15 @@ contains
     if (st%code /= 0) return
     where (kind == BOUND_LOWER) x = max(x, bnd)
     where (kind == BOUND_FIXED) x = bnd
-    if (.not. res%converged) call fall_back()
+    if (.not. res%converged) then
+      if (settings%fallback) then
+        call fall_back()
+      else
+        call set_warning(st, DS_WARN_NOT_CONVERGED, 'active set: ' // &
+          trim(merge('cycle detected     ', 'iteration limit hit', cycled)) // ' after ' // itoa(res%iterations) // &
+          ' iterations (no fallback); the projected iterate is returned')
+      end if
+    end if
     if (.not. is_ok(st)) return
     res%nactive = count(kind == BOUND_LOWER .and. x <= bnd)
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, g)

@@ -66,6 +66,7 @@ contains
     type(active_set_workspace_t) :: ws
     real(dp), allocatable :: mu(:), w(:), rhs(:), dtd_diag(:), absx(:), scale_w(:)
     integer :: i, p, q, outer
+    logical :: inner_ok
     integer, allocatable :: cols(:)
     real(dp), allocatable :: blk(:,:), vals(:)
 
@@ -98,6 +99,9 @@ contains
     allocate (mu(dmat%m), source=0.0_dp)
     allocate (w(dmat%m), rhs(a%n), absx(a%n), scale_w(dmat%m))
     aset%max_iter = settings%max_active
+    ! projected SOR on A + r D^T D (condition ~ r) would not converge in any useful time
+    aset%fallback = .false.
+    inner_ok = .true.
     aset%ordering = settings%ordering
     if (allocated(settings%perm)) aset%perm = settings%perm
     do outer = 1, settings%max_outer
@@ -114,19 +118,25 @@ contains
       res%ordering = ares%ordering
       res%nactive = ares%nactive
       res%kkt_residual = ares%kkt_residual
+      inner_ok = inner_ok .and. ares%converged
       call rect_matvec(dmat, x, w)
       absx = abs(x)
       call abs_matvec(dmat, absx, scale_w)
       res%defect = norm2(w) / max(norm2(scale_w), tiny(1.0_dp))
       if (res%defect <= settings%tol) then
-        res%converged = .true.
+        res%converged = inner_ok          ! a non-converged inner solve is not hidden by a small defect
         exit
       end if
       mu = mu - res%r * w
     end do
     call active_set_workspace_free(ws)
-    if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'augmented Lagrangian: defect ' // &
-      rtoa(res%defect) // ' > tol after ' // itoa(res%outer) // ' outer steps')
+    if (.not. inner_ok) then
+      call set_warning(st, DS_WARN_NOT_CONVERGED, 'augmented Lagrangian: an inner active-set solve did not ' // &
+        'converge (cycle or limit); relative defect ' // rtoa(res%defect) // ' after ' // itoa(res%outer) // ' outer steps')
+    else if (.not. res%converged) then
+      call set_warning(st, DS_WARN_NOT_CONVERGED, 'augmented Lagrangian: defect ' // &
+        rtoa(res%defect) // ' > tol after ' // itoa(res%outer) // ' outer steps')
+    end if
   end subroutine augmented_solve
 
   !> y = |D| x (entrywise absolute values of D).
