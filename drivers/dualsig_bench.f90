@@ -198,7 +198,7 @@ contains
     write (lcsv, '(a)') 'scene,level,n,solver,seconds,iterations,factorisations,bordered,baseline_s,ratio,' // &
       'error,residual,peak_mb,nnz_amd,nnz_metis,baseline_metis_s,baseline_amd_s,ratio_amd,nnz_nd'
     write (*, '(/,a)') 'dualsig_bench: work-precision and scaling, ' // scene_name // &
-      ' (grid sequencing; geometric nested dissection above 3e4 unknowns, AMD below, its time included; baseline = one' // &
+      ' (grid sequencing; geometric nested dissection from 1e4 unknowns, AMD below, its time included; baseline = one' // &
       ' ordering+analyse+factorise+solve of the unconstrained matrix with the same ordering; amd = the same with AMD)'
     write (*, '(a)') '  lvl         N     solver   iters fact bord   seconds  baseline   ratio       error    residual' // &
       '   peak MB  nnzL(amd)  nnzL(metis) metis_s   amd_s ratio_amd   nnzL(nd)'

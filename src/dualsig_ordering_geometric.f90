@@ -2,7 +2,8 @@
 !>
 !> Every unknown has a point in the plane (a mesh node, or a point on an edge for edge
 !> unknowns).  A set of unknowns is split at the median of its points along the longer side
-!> of its bounding box; the unknowns of the upper half that are coupled (in the matrix graph)
+!> of its bounding box, the points on the median line all on one side (so that a mesh line
+!> becomes the separator); the unknowns of the upper half that are coupled (in the matrix graph)
 !> to the lower half (or the other way round, whichever is smaller) form the separator,
 !> which is eliminated last; the two halves without it
 !> are ordered the same way, recursively, down to `leaf_size` unknowns.  On a mesh of a plane
@@ -25,9 +26,10 @@ module dualsig_ordering_geometric
   !> Sets of at most this many unknowns are not split further.
   integer, parameter :: leaf_size = 64
   !> Smallest matrix ordered by nested dissection in `geometric_ordering`; smaller ones by AMD.
-  !> Measured on P1 matrices of the unit square (make bench): the factor flops of nested
-  !> dissection are 1.5x AMD's at 4e3 unknowns, 1.13x at 1.7e4, 0.87x at 6.6e4, 0.57x at 1e6.
-  integer, parameter :: nd_min_unknowns = 30000
+  !> Factor flops of nested dissection / AMD on the P1 matrices of the unit square
+  !> (make bench, section large, prints the fill of both): 1.13 at 4.2e3 unknowns, 0.83 at 1.7e4,
+  !> 0.62 at 6.6e4, 0.52 at 2.6e5, 0.41 at 1.05e6.
+  integer, parameter :: nd_min_unknowns = 10000
 
 contains
 
@@ -39,7 +41,9 @@ contains
     integer, allocatable, intent(out) :: perm(:)
     type(status_t), intent(out) :: st
     integer, allocatable :: list(:), stamp(:)
-    integer :: n, i, next_stamp
+    real(dp), allocatable :: pts(:,:)
+    real(dp) :: reach(2)
+    integer :: n, i, p, next_stamp
     n = a%n
     if (size(xy, 1) /= 2 .or. size(xy, 2) /= n) then
       call set_error(st, DS_ERR_INPUT, 'geometric_nested_dissection: xy must be (2, ' // itoa(n) // &
@@ -47,110 +51,219 @@ contains
       allocate (perm(0))
       return
     end if
+    ! reach(axis): the longest extent of a graph edge along the axis; an unknown farther than
+    ! that from a split line has no neighbour on the other side
+    reach = 0.0_dp
+    do i = 1, n
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        reach = max(reach, abs(xy(:, a%col(p)) - xy(:, i)))
+      end do
+    end do
     allocate (perm(n), stamp(n), source=0)
-    list = [(i, i=1, n)]
+    allocate (list(n))
+    do i = 1, n
+      list(i) = i
+    end do
+    pts = xy
     next_stamp = 0
-    call dissect(list, 1)
+    call dissect(list, pts, 1)
 
   contains
 
-    !> Order the unknowns of `set` into perm(first : first + size(set) - 1).
-    recursive subroutine dissect(set, first)
+    !> Order the unknowns of `set` (with their points p, carried along so that every pass
+    !> reads memory in order) into perm(first : first + size(set) - 1).
+    recursive subroutine dissect(set, p, first)
       integer, intent(inout) :: set(:)
+      real(dp), intent(inout) :: p(:,:)
       integer, intent(in) :: first
-      integer :: m, half, axis, j, nsep, na, nb, s_low, s_high, side
+      integer :: m, half, axis, j, na, nb, nsep, ia, ib, is, s_low, s_high, side
       integer, allocatable :: part_a(:), part_b(:), sep(:)
+      real(dp), allocatable :: pa(:,:), pb(:,:)
       logical, allocatable :: touches(:)
-      real(dp) :: lo(2), hi(2)
+      real(dp) :: lo(2), hi(2), split_lo, split_hi
       m = size(set)
       if (m <= leaf_size) then
         perm(first:first + m - 1) = set
         return
       end if
-      lo = [minval(xy(1, set)), minval(xy(2, set))]
-      hi = [maxval(xy(1, set)), maxval(xy(2, set))]
+      lo = p(:, 1)
+      hi = p(:, 1)
+      do j = 2, m
+        lo = min(lo, p(:, j))
+        hi = max(hi, p(:, j))
+      end do
       axis = merge(1, 2, hi(1) - lo(1) >= hi(2) - lo(2))
       half = m / 2
-      call select_kth(set, axis, half)            ! set(1:half) <= set(half+1:) along axis
+      call select_kth(p, axis, set, half)          ! p(axis, 1:half) <= p(axis, half+1:)
+      ! points on the median line go to one side together (a mesh line is a natural
+      ! separator; split at random it leaves a ragged one): the side that keeps the halves
+      ! closer to equal
+      call split_ties(p, axis, set, half)
+      split_lo = maxval(p(axis, 1:half))
+      split_hi = minval(p(axis, half + 1:m))
       s_low = next_stamp + 1
       s_high = next_stamp + 2
       next_stamp = next_stamp + 2
       stamp(set(1:half)) = s_low
       stamp(set(half + 1:m)) = s_high
-      ! the unknowns of each half coupled to the other half: the smaller set is the separator
+      ! the unknowns of each half coupled to the other half (only those within reach of the
+      ! split are examined): the smaller set is the separator
       allocate (touches(m))
-      do j = 1, m
-        touches(j) = coupled(set(j), merge(s_high, s_low, j <= half))
+      do j = 1, half
+        touches(j) = split_hi - p(axis, j) <= reach(axis)
+        if (touches(j)) touches(j) = coupled(set(j), s_high)
+      end do
+      do j = half + 1, m
+        touches(j) = p(axis, j) - split_lo <= reach(axis)
+        if (touches(j)) touches(j) = coupled(set(j), s_low)
       end do
       side = merge(1, 2, count(touches(1:half)) <= count(touches(half + 1:m)))
+      ! the separator: the touching unknowns of the chosen side; the two parts: the rest
       if (side == 1) then
-        sep = pack(set(1:half), touches(1:half))
-        part_a = pack(set(1:half), .not. touches(1:half))
-        part_b = set(half + 1:m)
+        nsep = count(touches(1:half))
+        na = half - nsep
+        nb = m - half
       else
-        sep = pack(set(half + 1:m), touches(half + 1:m))
-        part_a = set(1:half)
-        part_b = pack(set(half + 1:m), .not. touches(half + 1:m))
+        nsep = count(touches(half + 1:m))
+        na = half
+        nb = m - half - nsep
       end if
-      nsep = size(sep)
-      na = size(part_a)
-      nb = size(part_b)
+      allocate (part_a(na), part_b(nb), sep(nsep), pa(2, na), pb(2, nb))
+      ia = 0
+      ib = 0
+      is = 0
+      do j = 1, m
+        if (touches(j) .and. (j <= half .eqv. side == 1)) then
+          is = is + 1
+          sep(is) = set(j)
+        else if (j <= half) then
+          ia = ia + 1
+          part_a(ia) = set(j)
+          pa(:, ia) = p(:, j)
+        else
+          ib = ib + 1
+          part_b(ib) = set(j)
+          pb(:, ib) = p(:, j)
+        end if
+      end do
+      deallocate (touches)
       ! the separator last, the two parts before it
       perm(first + na + nb:first + m - 1) = sep
-      if (na > 0) call dissect(part_a, first)
-      if (nb > 0) call dissect(part_b, first + na)
+      if (na > 0) call dissect(part_a, pa, first)
+      deallocate (pa)
+      if (nb > 0) call dissect(part_b, pb, first + na)
     end subroutine dissect
 
     !> Unknown i has a neighbour (in the graph of a) stamped `other`.
     logical function coupled(i, other)
       integer, intent(in) :: i, other
-      integer :: p
+      integer :: q
       coupled = .false.
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        if (stamp(a%col(p)) == other) then
+      do q = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (stamp(a%col(q)) == other) then
           coupled = .true.
           return
         end if
       end do
     end function coupled
+  end subroutine geometric_nested_dissection
 
-    !> Partial sort (quickselect): afterwards xy(axis, set(1:k)) <= xy(axis, set(k+1:)).
-    subroutine select_kth(set, axis, k)
-      integer, intent(inout) :: set(:)
-      integer, intent(in) :: axis, k
-      integer :: l, r, i, j, tmp
-      real(dp) :: pivot
-      l = 1
-      r = size(set)
-      do while (l < r)
-        pivot = median_of_three(xy(axis, set(l)), xy(axis, set((l + r) / 2)), xy(axis, set(r)))
-        i = l
-        j = r
-        do while (i <= j)
-          do while (xy(axis, set(i)) < pivot)
-            i = i + 1
-          end do
-          do while (xy(axis, set(j)) > pivot)
-            j = j - 1
-          end do
-          if (i <= j) then
-            tmp = set(i)
-            set(i) = set(j)
-            set(j) = tmp
-            i = i + 1
-            j = j - 1
-          end if
+  !> After select_kth: move the points whose coordinate equals the median value v = p(axis, half)
+  !> all to the lower part (<= v) or all to the upper part (< v below), whichever leaves the
+  !> parts closer to m/2; half becomes the size of the lower part (unchanged when the
+  !> choice would empty a part).
+  pure subroutine split_ties(p, axis, set, half)
+    real(dp), intent(inout) :: p(:,:)
+    integer, intent(in) :: axis
+    integer, intent(inout) :: set(:)
+    integer, intent(inout) :: half
+    real(dp) :: v
+    integer :: m, below, equal, nlow
+    logical :: include_equal
+    m = size(set)
+    v = p(axis, half)
+    below = count(p(axis, :) < v)
+    equal = count(p(axis, :) == v)
+    include_equal = abs(below + equal - m / 2) < abs(below - m / 2)
+    nlow = merge(below + equal, below, include_equal)
+    if (nlow == 0 .or. nlow == m) return
+    call partition_at(p, axis, set, v, include_equal)
+    half = nlow
+  end subroutine split_ties
+
+  !> Two-pointer partition: the points with coordinate < v (with_equal: <= v) first.
+  pure subroutine partition_at(p, axis, set, v, with_equal)
+    real(dp), intent(inout) :: p(:,:)
+    integer, intent(in) :: axis
+    integer, intent(inout) :: set(:)
+    real(dp), intent(in) :: v
+    logical, intent(in) :: with_equal
+    integer :: i, j, m, itmp
+    real(dp) :: tmp(2)
+    m = size(set)
+    i = 1
+    j = m
+    do
+      do while (i <= m)
+        if (.not. (p(axis, i) < v .or. (with_equal .and. p(axis, i) == v))) exit
+        i = i + 1
+      end do
+      do while (j >= 1)
+        if (p(axis, j) < v .or. (with_equal .and. p(axis, j) == v)) exit
+        j = j - 1
+      end do
+      if (i >= j) exit
+      tmp = p(:, i)
+      p(:, i) = p(:, j)
+      p(:, j) = tmp
+      itmp = set(i)
+      set(i) = set(j)
+      set(j) = itmp
+    end do
+  end subroutine partition_at
+
+  !> Partial sort (quickselect) of the points p along `axis`, with set permuted alike:
+  !> afterwards p(axis, 1:k) <= p(axis, k+1:).
+  pure subroutine select_kth(p, axis, set, k)
+    real(dp), intent(inout) :: p(:,:)
+    integer, intent(in) :: axis
+    integer, intent(inout) :: set(:)
+    integer, intent(in) :: k
+    integer :: l, r, i, j, itmp
+    real(dp) :: pivot, tmp(2)
+    l = 1
+    r = size(set)
+    do while (l < r)
+      pivot = median_of_three(p(axis, l), p(axis, (l + r) / 2), p(axis, r))
+      i = l
+      j = r
+      do while (i <= j)
+        do while (p(axis, i) < pivot)
+          i = i + 1
         end do
-        if (k <= j) then
-          r = j
-        else if (k >= i) then
-          l = i
-        else
-          exit
+        do while (p(axis, j) > pivot)
+          j = j - 1
+        end do
+        if (i <= j) then
+          tmp = p(:, i)
+          p(:, i) = p(:, j)
+          p(:, j) = tmp
+          itmp = set(i)
+          set(i) = set(j)
+          set(j) = itmp
+          i = i + 1
+          j = j - 1
         end if
       end do
-    end subroutine select_kth
-  end subroutine geometric_nested_dissection
+      if (k <= j) then
+        r = j
+      else if (k >= i) then
+        l = i
+      else
+        exit
+      end if
+    end do
+  end subroutine select_kth
 
   !> The ordering for CHOLMOD chosen by size (the cheaper factorisation, see nd_min_unknowns):
   !> ord = ORDERING_GIVEN with the geometric nested dissection in perm, or ORDERING_AMD

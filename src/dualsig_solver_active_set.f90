@@ -82,7 +82,12 @@ module dualsig_solver_active_set
     ! bordering cache (valid for the kept factor): z_d and y_d of the unknowns idx(1:ncache)
     integer :: ncache = 0
     integer, allocatable :: cache_idx(:)
+    logical, allocatable :: cache_has_y(:)     !! y_d computed (only needed for some d)
     real(dp), allocatable :: cache_z(:,:), cache_y(:,:)
+    ! the last plain solve of this call, M1 base_sol = base_rhs (same F as the factor, same F):
+    ! a bordered step derives M1^{-1} b_R from it without a solve
+    logical :: base_valid = .false.
+    real(dp), allocatable :: base_rhs(:), base_sol(:)
   end type active_set_workspace_t
 
   !> Sets remembered for cycle detection.
@@ -106,7 +111,9 @@ contains
     ws%t_solve = -1.0_dp
     ws%t_refactor = -1.0_dp
     ws%ncache = 0
-    if (allocated(ws%cache_z)) deallocate (ws%cache_z, ws%cache_y, ws%cache_idx)
+    ws%base_valid = .false.
+    if (allocated(ws%cache_z)) deallocate (ws%cache_z, ws%cache_y, ws%cache_idx, ws%cache_has_y)
+    if (allocated(ws%base_rhs)) deallocate (ws%base_rhs, ws%base_sol)
   end subroutine active_set_workspace_free
 
   !> Solve from the start x (which predicts the first active set); x returns the solution.
@@ -145,6 +152,7 @@ contains
       call predict_fixed(fixed)
     end if
     if (.not. w%have_factor) w%ar = a
+    w%base_valid = .false.               ! f may differ from the last call's
     nhist = 0
     cycled = .false.
     ! costs measured in earlier calls with the same kept factor (unknown until measured)
@@ -167,8 +175,9 @@ contains
         t0 = wall_seconds()
         call cholesky_solve(w%chol, rhs, x, st)
         t_solve = wall_seconds() - t0
+        call keep_base()
       else if (border) then
-        call bordered_solve(a, w, settings%max_lowrank, fixed, rhs, x, st)
+        call bordered_solve(a, w, settings%max_lowrank, fixed, rhs, bnd, x, st)
         res%lowrank_solves = res%lowrank_solves + 1
       else
         had_factor = w%have_factor
@@ -184,6 +193,7 @@ contains
         t0 = wall_seconds()
         call cholesky_solve(w%chol, rhs, x, st)
         t_solve = wall_seconds() - t0
+        call keep_base()
       end if
       if (st%code /= 0) exit
       res%iterations = it
@@ -223,9 +233,18 @@ contains
 
   contains
 
-    !> Bordering with k changed unknowns, `fresh` of them not cached (one solve plus a block
-    !> solve with 2 fresh right-hand sides), is predicted cheaper than a numeric
-    !> refactorisation and its solve; before anything was timed, only small k are bordered.
+    !> Remember the plain solve just done (held set = the factor's) for bordered steps.
+    subroutine keep_base()
+      if (st%code /= 0) return
+      w%base_rhs = rhs
+      w%base_sol = x
+      w%base_valid = .true.
+    end subroutine keep_base
+
+    !> Bordering with k changed unknowns, `fresh` of them not cached (at most one solve plus a
+    !> block solve with 2 right-hand sides per fresh unknown), is predicted cheaper than a
+    !> numeric refactorisation and its solve; before anything was timed, only small k are
+    !> bordered.
     logical function bordering_pays(k, fresh)
       integer, intent(in) :: k, fresh
       if (k > settings%max_lowrank) then
@@ -372,53 +391,75 @@ contains
     end do
   end function cache_position
 
-  !> Make z_d = M1^{-1} e_d and y_d = M1^{-1} u_d (u_d = column d of a without the rows held
-  !> in the kept factor) available for every d of `d`, with one block solve for the new ones.
-  !> Cached unknowns no longer in d are dropped when room is needed (capacity max_lowrank).
-  subroutine cache_columns(a, w, d, capacity, st)
+  !> Make z_d = M1^{-1} e_d (every d of `d`) and y_d = M1^{-1} u_d (u_d = column d of a without
+  !> the rows held in the kept factor; where need_y) available, with one block solve for
+  !> the missing columns.  Cached unknowns no longer in d are dropped when room is needed
+  !> (capacity max_lowrank).
+  subroutine cache_columns(a, w, d, need_y, capacity, st)
     type(csr_t), intent(in) :: a
     type(active_set_workspace_t), intent(inout) :: w
     integer, intent(in) :: d(:), capacity
+    logical, intent(in) :: need_y(:)
     type(status_t), intent(out) :: st
-    integer, allocatable :: fresh(:)
+    integer, allocatable :: zlist(:), ylist(:), pos(:)
     real(dp), allocatable :: rhs(:,:), sol(:,:)
-    integer :: n, j, p, m, keep
+    integer :: n, j, p, mz, my, keep, c
     n = a%n
     if (.not. allocated(w%cache_z)) then
-      allocate (w%cache_idx(capacity), w%cache_z(n, capacity), w%cache_y(n, capacity))
+      allocate (w%cache_idx(capacity), w%cache_has_y(capacity), w%cache_z(n, capacity), w%cache_y(n, capacity))
       w%ncache = 0
     end if
-    fresh = pack(d, [(cache_position(w, d(j)) == 0, j=1, size(d))])
-    m = size(fresh)
-    if (m == 0) return
-    if (w%ncache + m > capacity) then
+    zlist = pack(d, [(cache_position(w, d(j)) == 0, j=1, size(d))])
+    mz = size(zlist)
+    if (w%ncache + mz > capacity) then
       ! keep only the cached unknowns that are still changed
       keep = 0
       do j = 1, w%ncache
         if (any(d == w%cache_idx(j))) then
           keep = keep + 1
           w%cache_idx(keep) = w%cache_idx(j)
+          w%cache_has_y(keep) = w%cache_has_y(j)
           w%cache_z(:, keep) = w%cache_z(:, j)
           w%cache_y(:, keep) = w%cache_y(:, j)
         end if
       end do
       w%ncache = keep
     end if
-    allocate (rhs(n, 2 * m), sol(n, 2 * m))
+    ! new cache slots for the unknowns without z
+    do j = 1, mz
+      w%ncache = w%ncache + 1
+      w%cache_idx(w%ncache) = zlist(j)
+      w%cache_has_y(w%ncache) = .false.
+    end do
+    allocate (pos(size(d)))
+    do j = 1, size(d)
+      pos(j) = cache_position(w, d(j))
+    end do
+    ylist = pack(d, need_y .and. .not. w%cache_has_y(pos))
+    my = size(ylist)
+    if (mz + my == 0) return
+    allocate (rhs(n, mz + my), sol(n, mz + my))
     rhs = 0.0_dp
-    do j = 1, m
-      rhs(fresh(j), j) = 1.0_dp
-      do p = a%rowptr(fresh(j)), a%rowptr(fresh(j) + 1) - 1      ! a symmetric: column = row
-        if (.not. w%fixed(a%col(p))) rhs(a%col(p), m + j) = a%val(p)
+    do j = 1, mz
+      rhs(zlist(j), j) = 1.0_dp
+    end do
+    do j = 1, my
+      do p = a%rowptr(ylist(j)), a%rowptr(ylist(j) + 1) - 1      ! a symmetric: column = row
+        if (.not. w%fixed(a%col(p))) rhs(a%col(p), mz + j) = a%val(p)
       end do
     end do
     call cholesky_solve(w%chol, rhs, sol, st)
-    if (st%code /= 0) return
-    do j = 1, m
-      w%ncache = w%ncache + 1
-      w%cache_idx(w%ncache) = fresh(j)
-      w%cache_z(:, w%ncache) = sol(:, j)
-      w%cache_y(:, w%ncache) = sol(:, m + j)
+    if (st%code /= 0) then
+      w%ncache = w%ncache - mz                 ! the new slots hold nothing
+      return
+    end if
+    do j = 1, mz
+      w%cache_z(:, cache_position(w, zlist(j))) = sol(:, j)
+    end do
+    do j = 1, my
+      c = cache_position(w, ylist(j))
+      w%cache_y(:, c) = sol(:, mz + j)
+      w%cache_has_y(c) = .true.
     end do
   end subroutine cache_columns
 
@@ -427,26 +468,37 @@ contains
   !> With Z = M1^{-1} E_D, C1 = Z(D, :) and, for r zero on D, A_RR^{-1} r = [s - Z C1^{-1} s(D)]_R
   !> with s = M1^{-1} r:
   !>   B(:, j) = u_dj with the rows of D removed (0 when d_j is held), so M1^{-1} B(:, j) =
-  !>   y_dj - Z u_dj(D);  M1^{-1} b_R = M1^{-1} b - Z b(D);
+  !>   y_dj - Z u_dj(D);  M1^{-1} b_R by a solve, or without one from the last plain solve
+  !>   M1 s0 = b0 of this call (same F1, same f): b_R differs from b0 only in the rows of D
+  !>   (zeroed) and by sum_d c_d (u_d without the rows of D), c_d = -bnd_d for an unknown
+  !>   newly held and +bnd_d for one newly freed (its bound value moves between the sides), so
+  !>   M1^{-1} b_R = s0 - Z b0(D) + sum_d c_d (y_d - Z u_d(D));
   !>   S = M(held)_DD - B^T A_RR^{-1} B,  x_D = S^{-1} (b_D - B^T A_RR^{-1} b_R),
   !>   x_R = A_RR^{-1} b_R - A_RR^{-1} B x_D.
-  subroutine bordered_solve(a, w, capacity, held, b, x, st)
+  subroutine bordered_solve(a, w, capacity, held, b, bnd, x, st)
     type(csr_t), intent(in) :: a
     type(active_set_workspace_t), intent(inout) :: w
     integer, intent(in) :: capacity
     logical, intent(in) :: held(:)
     real(dp), intent(in) :: b(:)
+    real(dp), intent(in) :: bnd(:)
     real(dp), intent(out) :: x(:)
     type(status_t), intent(out) :: st
     integer, allocatable :: d(:), ipiv(:), pos(:)
-    real(dp), allocatable :: z(:,:), c1(:,:), h(:,:), t(:,:), s(:,:), xd(:), ud(:,:), y0(:)
+    real(dp), allocatable :: z(:,:), c1(:,:), h(:,:), t(:,:), s(:,:), xd(:), ud(:,:), y0(:), cd(:)
     integer :: n, k, j, p, i, info, r
-    logical, allocatable :: in_d(:)
+    logical, allocatable :: in_d(:), need_y(:)
     external :: dgesv
     n = size(b)
     d = pack([(i, i=1, n)], w%fixed .neqv. held)
     k = size(d)
-    call cache_columns(a, w, d, capacity, st)
+    ! c_d: the change of the bound value moved to the right-hand side (newly held: -bnd)
+    allocate (cd(k))
+    do j = 1, k
+      cd(j) = merge(-bnd(d(j)), bnd(d(j)), held(d(j)))
+    end do
+    need_y = .not. held(d) .or. (w%base_valid .and. cd /= 0.0_dp)
+    call cache_columns(a, w, d, need_y, capacity, st)
     if (st%code /= 0) return
     allocate (in_d(n), source=.false.)
     in_d(d) = .true.
@@ -465,8 +517,15 @@ contains
     end do
     ! H = [M1^{-1} B, M1^{-1} b_R]
     allocate (y0(n), h(n, k + 1))
-    call cholesky_solve(w%chol, merge(0.0_dp, b, in_d), y0, st)
-    if (st%code /= 0) return
+    if (w%base_valid) then
+      y0 = w%base_sol - matmul(z, w%base_rhs(d))
+      do j = 1, k
+        if (cd(j) /= 0.0_dp) y0 = y0 + cd(j) * (w%cache_y(:, pos(j)) - matmul(z, ud(:, j)))
+      end do
+    else
+      call cholesky_solve(w%chol, merge(0.0_dp, b, in_d), y0, st)
+      if (st%code /= 0) return
+    end if
     do j = 1, k
       if (held(d(j))) then
         h(:, j) = 0.0_dp                        ! a held unknown's column is e_j: no coupling
