@@ -60,7 +60,7 @@ DRIVER  := $(BINDIR)/dualsig
 all: $(LIBRARY) $(DRIVER)
 lib: $(LIBRARY)
 
-$(sort $(BLD) $(MODDIR) $(LIBDIR) $(BINDIR)):
+$(sort $(BLD) $(MODDIR) $(BINDIR)):
 	@mkdir -p $@
 
 # Module dependencies, derived from the "use" statements of src/*.f90.
@@ -78,7 +78,9 @@ $(BLD)/%.o: src/%.f90 | $(BLD) $(MODDIR)
 $(BLD)/%.o: src/%.c | $(BLD)
 	$(CC) -O2 -g -Wall -Wextra -I/usr/include/suitesparse -c $< -o $@
 
-$(LIBRARY): $(OBJS) | $(LIBDIR)
+# (no order-only $(LIBDIR) prerequisite: in the release build it is 'lib', the phony target)
+$(LIBRARY): $(OBJS)
+	@mkdir -p $(@D)
 	@rm -f $@
 	ar rcs $@ $(OBJS)
 

@@ -33,9 +33,9 @@ set xlabel 'unknowns'
 set ylabel 'wall time [s]'
 set key left top box opaque
 plot L1 using 3:5 with linespoints lw 2 pt 7 title 'P1 primal, active set', \
-     L1 using 3:9 with linespoints lw 1 pt 6 dt 2 title 'P1: one AMD analyse+factorise+solve', \
+     L1 using 3:9 with linespoints lw 1 pt 6 dt 2 title 'P1: one ordering+analyse+factorise+solve (same ordering)', \
      L2 using 3:5 with linespoints lw 2 pt 5 title 'P2 primal, active set', \
-     L2 using 3:9 with linespoints lw 1 pt 4 dt 2 title 'P2: one AMD analyse+factorise+solve', \
+     L2 using 3:9 with linespoints lw 1 pt 4 dt 2 title 'P2: one ordering+analyse+factorise+solve (same ordering)', \
      D1 using 3:5 with linespoints lw 2 pt 9 title 'P1 dual (2N unknowns)', \
      D2 using 3:5 with linespoints lw 2 pt 11 title 'P2 dual (edge fluxes)', \
      [1e3:3e6] 1e-6*x lw 1 lc rgb 'gray' title 'slope 1'

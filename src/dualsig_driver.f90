@@ -401,9 +401,14 @@ contains
       norm_name = 'the H1 seminorm |.|_1'
       matrices = 'K (no mass matrix)'
     end if
-    parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (projected SOR'
-    if (cfg%omega_auto) parts = parts // ', omega from a Lanczos estimate'
-    parts = parts // ')'
+    if (cfg%method == 'active_set') then
+      parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (primal-dual active set, CHOLMOD, ' // &
+        'ordering ' // trim(cfg%dual_ordering) // ')'
+    else
+      parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (projected SOR'
+      if (cfg%omega_auto) parts = parts // ', omega from a Lanczos estimate'
+      parts = parts // ')'
+    end if
     if (scene%has_exact) then
       parts = parts // ', exact errors (degree-' // itoa(exact_degree) // ' quadrature)'
     else

@@ -242,7 +242,8 @@ subroutine dssign(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, io
   use dualsig_quadrature, only: tri_rule_t, tri_rule
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
-  use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL
+  use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
+  use dualsig_ordering_geometric, only: geometric_ordering
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble, PROBLEM_P1, &
                                     PROBLEM_P2
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
@@ -592,8 +593,8 @@ contains
       call fail(10, 'IOPT(4) = ' // itoa(iopt(4)) // ' (printing: 0, 1 or 2)')
     else if (iopt(5) < 0) then
       call fail(10, 'IOPT(5) = ' // itoa(iopt(5)) // ' (output unit: 0 default or > 0)')
-    else if (ordering < 0 .or. ordering > 4) then
-      call fail(10, 'IOPT(6) = ' // itoa(iopt(6)) // ' (ordering: 0/1 amd, 2 metis, 3 best, 4 natural)')
+    else if (ordering < 0 .or. ordering > 5) then
+      call fail(10, 'IOPT(6) = ' // itoa(iopt(6)) // ' (ordering: 0/1 amd, 2 metis, 3 best, 4 natural, 5 nd)')
     else if (dual_max_iter < 1) then
       call fail(10, 'IOPT(7) = ' // itoa(iopt(7)) // ' (dual iteration limit: 0 default or >= 1)')
     else if (check_every < 1) then
@@ -611,6 +612,8 @@ contains
       ordering = ORDERING_BEST
     case (4)
       ordering = ORDERING_NATURAL
+    case (5)
+      ordering = ORDERING_GEOMETRIC
     case default
       ordering = ORDERING_AMD
     end select
@@ -659,6 +662,10 @@ contains
     if (primal_method == 2) then
       aset%max_iter = max_iter
       aset%ordering = ordering
+      if (ordering == ORDERING_GEOMETRIC) then
+        ! nested dissection from the node coordinates (from 1e4 unknowns), AMD below
+        call geometric_ordering(mesh%xy, sys%a, aset%ordering, aset%perm, st_solve)
+      end if
       call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st_solve)
       iters = ares%iterations
       kkt = ares%kkt_residual
