@@ -369,29 +369,41 @@ contains
   !> all counted).
   subroutine split_fields(rd)
     type(reader_t), intent(inout) :: rd
-    integer :: p, n, b, e
+    integer :: p, b, e
     rd%nf = 0
     p = 1
-    n = len(rd%line)
     do
-      if (p > n) exit
-      b = verify(rd%line(p:), whitespace)
-      if (b == 0) exit
-      b = p + b - 1
-      e = scan(rd%line(b:), whitespace)
-      if (e == 0) then
-        e = n
-      else
-        e = b + e - 2
-      end if
+      if (.not. next_field(rd%line, p, b, e)) exit
       rd%nf = rd%nf + 1
       if (rd%nf <= max_fields) then
         rd%fb(rd%nf) = b
         rd%fe(rd%nf) = e
       end if
-      p = e + 1
     end do
   end subroutine split_fields
+
+  !> The next blank- or tab-separated field of `line` at or after position p: its first and
+  !> last characters b and e (p is moved past it); .false. when there is none.
+  logical function next_field(line, p, b, e) result(found)
+    character(len=*), intent(in) :: line
+    integer, intent(inout) :: p
+    integer, intent(out) :: b, e
+    found = .false.
+    b = 0
+    e = 0
+    if (p > len(line)) return
+    b = verify(line(p:), whitespace)
+    if (b == 0) return
+    b = p + b - 1
+    e = scan(line(b:), whitespace)
+    if (e == 0) then
+      e = len(line)
+    else
+      e = b + e - 2
+    end if
+    p = e + 1
+    found = .true.
+  end function next_field
 
   !> Text of field k of the current record.
   function field(rd, k) result(s)
@@ -845,7 +857,7 @@ contains
     type(mesh_text_reader_t), intent(inout) :: rd
     logical, intent(out) :: found
     type(status_t), intent(inout) :: st
-    integer :: ios, k, p, b, e, n
+    integer :: ios, k, p, b, e
     integer, allocatable :: grown(:)
     character(len=256) :: iom
 
@@ -866,18 +878,8 @@ contains
       end if
       rd%nf = 0
       p = 1
-      n = len(rd%line)
       do
-        if (p > n) exit
-        b = verify(rd%line(p:), whitespace)
-        if (b == 0) exit
-        b = p + b - 1
-        e = scan(rd%line(b:), whitespace)
-        if (e == 0) then
-          e = n
-        else
-          e = b + e - 2
-        end if
+        if (.not. next_field(rd%line, p, b, e)) exit
         rd%nf = rd%nf + 1
         if (rd%nf > size(rd%fb)) then
           allocate (grown(2 * size(rd%fb)))
@@ -889,7 +891,6 @@ contains
         end if
         rd%fb(rd%nf) = b
         rd%fe(rd%nf) = e
-        p = e + 1
       end do
       if (rd%nf > 0) exit
     end do
