@@ -195,12 +195,13 @@ contains
     integer :: lcsv, i, p, nfit, ord
     integer, allocatable :: perm(:)
     integer(i8) :: nnz_amd, nnz_metis, nnz_nd
-    real(dp) :: fl_amd, fl_metis
+    real(dp) :: fl_amd, fl_metis, fl_nd
     character(len=12) :: dual_name
     character(len=64) :: qp_name
     open (newunit=lcsv, file='out/bench_large_' // scene_name // '.csv', status='replace')
     write (lcsv, '(a)') 'scene,level,n,solver,seconds,iterations,factorisations,bordered,baseline_s,ratio,' // &
-      'error,residual,peak_mb,nnz_amd,nnz_metis,baseline_metis_s,baseline_amd_s,ratio_amd,nnz_nd'
+      'error,residual,peak_mb,nnz_amd,nnz_metis,baseline_metis_s,baseline_amd_s,ratio_amd,nnz_nd,' // &
+      'flops_amd,flops_nd,flops_metis'
     write (*, '(/,a)') 'dualsig_bench: work-precision and scaling, ' // scene_name // &
       ' (grid sequencing; geometric nested dissection from 1e4 unknowns, AMD below, its time included; baseline = one' // &
       ' ordering+analyse+factorise+solve of the unconstrained matrix with the same ordering; amd = the same with AMD)'
@@ -253,8 +254,10 @@ contains
       call cholesky_solve(chol, sys%load, x, st)
       tbn = wall() - t0
       nnz_nd = chol%nnz_factor
+      fl_nd = chol%flops
       call cholesky_free(chol)
       nnz_metis = 0
+      fl_metis = 0.0_dp
       tbm = 0.0_dp
       if (level >= first_level_metis) then
         t0 = wall()
@@ -277,8 +280,11 @@ contains
         'active_set', ares%iterations, ares%factorisations, ares%lowrank_solves, tp, tbn, tp / tbn, err, &
         ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
       write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,2(",",i0),' // &
-        '3(",",es12.4),",",i0)') scene_name, level, mesh%nnode, 'active_set', tp, ares%iterations, ares%factorisations, &
-        ares%lowrank_solves, tbn, tp / tbn, err, ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
+        '3(",",es12.4),",",i0,3(",",es12.4))') scene_name, level, mesh%nnode, 'active_set', tp, ares%iterations, &
+        ares%factorisations, ares%lowrank_solves, tbn, tp / tbn, err, ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, &
+        tbm, tb, tp / tb, nnz_nd, fl_amd, fl_nd, fl_metis
+      write (*, '(a,3es11.3,a,f6.3)') '       factor flops (CHOLMOD): amd, baseline ordering, metis =', fl_amd, fl_nd, &
+        fl_metis, ';  baseline / amd =', fl_nd / fl_amd
       flush (6)
       if (level >= first_level_fit) then
         nfit = nfit + 1
@@ -310,7 +316,7 @@ contains
           d1res%iterations, d1res%factorisations, d1res%lowrank_solves, td, tdb, td / tdb, sqrt(b1%est), &
           d1res%residual, peak_mb(), tdba, td / tdba
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
-          '",0,0,0",2(",",es12.4),",0")') scene_name, level, 2 * mesh%nnode, 'dual_p1', td, d1res%iterations, &
+          '",0,0,0",2(",",es12.4),",0,0,0,0")') scene_name, level, 2 * mesh%nnode, 'dual_p1', td, d1res%iterations, &
           d1res%factorisations, d1res%lowrank_solves, tdb, td / tdb, sqrt(b1%est), d1res%residual, peak_mb(), tdba, td / tdba
       else
         is_gamma_a = mesh%bedge_marker == 1
@@ -339,7 +345,7 @@ contains
         write (*, '(a,4f8.3,a)') '       profile of the dual solve (s): particular field, elements, loads, solver =', &
           d2res%seconds_particular, d2res%seconds_elements, d2res%seconds_loads, d2res%seconds_solver
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
-          '",0,0,0",2(",",es12.4),",0")') scene_name, level, ad%n, 'dual_p2', td, d2res%iterations, d2res%factorisations, &
+          '",0,0,0",2(",",es12.4),",0,0,0,0")') scene_name, level, ad%n, 'dual_p2', td, d2res%iterations, d2res%factorisations, &
           0, tdb, td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect, peak_mb(), &
           tdba, td / tdba
       end if

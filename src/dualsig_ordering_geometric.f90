@@ -27,8 +27,8 @@ module dualsig_ordering_geometric
   integer, parameter :: leaf_size = 64
   !> Smallest matrix ordered by nested dissection in `geometric_ordering`; smaller ones by AMD.
   !> Factor flops of nested dissection / AMD on the P1 matrices of the unit square
-  !> (make bench, section large, prints the fill of both): 1.13 at 4.2e3 unknowns, 0.83 at 1.7e4,
-  !> 0.62 at 6.6e4, 0.52 at 2.6e5, 0.41 at 1.05e6.
+  !> (`bin/dualsig_bench large_p1` prints them per level): 0.83 at 1.7e4 unknowns, 0.62 at
+  !> 6.6e4, 0.52 at 2.6e5, 0.41 at 1.05e6.
   integer, parameter :: nd_min_unknowns = 10000
 
 contains

@@ -55,7 +55,7 @@ module dualsig_solver_active_set
     integer :: fallback_max_iter = 1000000   !! sweeps of the fallback
     !> largest normwise backward error ||M x - b||_inf / (||M||_inf ||x||_inf + ||b||_inf) of a
     !> bordered solve; a larger one is discarded and the matrix refactorised
-    real(dp) :: bordered_tol = 1.0e-12_dp    !! (measured: 1e-17..5e-15 when sound, ~2e-9 on a penalised matrix)
+    real(dp) :: bordered_tol = 1.0e-12_dp    !! (seen: 1e-17..5e-15 when sound, ~2e-9 on the penalised L-shape matrix)
     logical :: fallback = .true.         !! .false.: no projected-SOR fallback (e.g. for a badly conditioned
                                          !! penalised matrix); a cycle or the limit is then only reported
   end type active_set_settings_t
