@@ -51,7 +51,8 @@ enum {
     DSCHOL_ORD_NESDIS = 4,       /* output only: CHOLMOD's own nested dissection */
     DSCHOL_ORD_COLAMD = 5,       /* output only */
     DSCHOL_ORD_POSTORDERED = 6,  /* output only: natural ordering followed by a postorder */
-    DSCHOL_ORD_GIVEN = 7,        /* output only: user permutation */
+    DSCHOL_ORD_GIVEN = 7,        /* user permutation, post-ordered by CHOLMOD */
+    DSCHOL_ORD_GIVEN_EXACT = 9,  /* input only: user permutation kept exactly (no post-ordering) */
     DSCHOL_ORD_UNKNOWN = -1      /* output only: a code this shim does not know */
 };
 
@@ -72,6 +73,10 @@ int dualsig_chol_refactor(void *handle, const double *val);
 int dualsig_chol_solve(void *handle, int nrhs, const double *b, double *x);
 int dualsig_chol_minor(const void *handle);
 void dualsig_chol_free(void **handle);
+int dualsig_chol_order(int n, const int *colptr, const int *rowind, int ordering, int *perm);
+int dualsig_chol_perm(const void *handle, int *perm);
+int dualsig_chol_trailing(const void *handle, int na, double *ltt);
+int dualsig_chol_solve_tri(void *handle, int upper, const double *b, double *x);
 
 /* Map a negative CHOLMOD status to a shim status. */
 static int map_failure(int cholmod_status)
@@ -128,7 +133,7 @@ static int factorize(dschol_handle *h)
  * rowind <= column are used.  ordering: 0 best of AMD and METIS (least nnz(L)), 1 AMD,
  * 2 METIS (CHOLMOD falls back to AMD if METIS fails), 3 natural, 7 given: perm[0..n-1]
  * (0-based, a permutation; NULL for the other orderings) is the elimination order, which
- * CHOLMOD post-orders.
+ * CHOLMOD post-orders, 9 given exactly: perm without post-ordering.
  *
  * Outputs (all set, also on failure where known):
  *   *handle         the new handle, NULL on any failure (everything is freed then)
@@ -162,7 +167,7 @@ int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const doubl
 
     /* validate the pattern: colptr[0] = 0, nondecreasing, rows in [0, n) */
     if (n < 0 || colptr == NULL) return DSCHOL_ERR_INPUT;
-    if (ordering == DSCHOL_ORD_GIVEN) {
+    if (ordering == DSCHOL_ORD_GIVEN || ordering == DSCHOL_ORD_GIVEN_EXACT) {
         /* a permutation of 0..n-1 */
         char *seen;
         if (perm == NULL) return DSCHOL_ERR_INPUT;
@@ -217,6 +222,11 @@ int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const doubl
         h->c.nmethods = 1;
         h->c.method[0].ordering = CHOLMOD_GIVEN;  /* post-ordered (postorder = 1) */
         break;
+    case DSCHOL_ORD_GIVEN_EXACT:
+        h->c.nmethods = 1;
+        h->c.method[0].ordering = CHOLMOD_GIVEN;
+        h->c.postorder = 0;                 /* the elimination order is exactly perm */
+        break;
     default:
         h->c.nmethods = 1;
         h->c.method[0].ordering = CHOLMOD_NATURAL;
@@ -238,7 +248,7 @@ int dualsig_chol_factor(int n, const int *colptr, const int *rowind, const doubl
     }
 
     feholdexcept(&env);
-    if (ordering == DSCHOL_ORD_GIVEN)
+    if (ordering == DSCHOL_ORD_GIVEN || ordering == DSCHOL_ORD_GIVEN_EXACT)
         h->L = cholmod_analyze_p(h->A, (int *) perm, NULL, 0, &h->c);
     else
         h->L = cholmod_analyze(h->A, &h->c);
@@ -339,4 +349,137 @@ void dualsig_chol_free(void **handle)
     }
     free(h);
     *handle = NULL;
+}
+
+/*
+ * The fill-reducing ordering alone: cholmod_analyze of the n x n pattern (colptr, rowind,
+ * 0-based CSC, entries with row <= column read) with ordering 0 best, 1 AMD or 2 METIS,
+ * and the final (post-ordered) elimination order copied to perm[0..n-1]: perm[k] is the
+ * unknown eliminated k-th.  No numeric factorisation; everything is freed on return.
+ */
+int dualsig_chol_order(int n, const int *colptr, const int *rowind, int ordering, int *perm)
+{
+    cholmod_common c;
+    cholmod_sparse *A;
+    cholmod_factor *L;
+    fenv_t env;
+    size_t nnz;
+    int j, st = DSCHOL_OK;
+
+    if (n < 0 || colptr == NULL || perm == NULL || ordering < DSCHOL_ORD_BEST ||
+        ordering > DSCHOL_ORD_METIS || colptr[0] != 0)
+        return DSCHOL_ERR_INPUT;
+    for (j = 0; j < n; j++)
+        if (colptr[j + 1] < colptr[j]) return DSCHOL_ERR_INPUT;
+    nnz = (size_t) colptr[n];
+    if (nnz > 0 && rowind == NULL) return DSCHOL_ERR_INPUT;
+    for (j = 0; j < (int) nnz; j++)
+        if (rowind[j] < 0 || rowind[j] >= n) return DSCHOL_ERR_INPUT;
+
+    feholdexcept(&env);
+    cholmod_start(&c);
+    c.print = 0;
+    c.error_handler = NULL;
+    c.supernodal = CHOLMOD_SUPERNODAL;
+    c.nmethods = ordering == DSCHOL_ORD_BEST ? 2 : 1;
+    c.method[0].ordering = ordering == DSCHOL_ORD_METIS ? CHOLMOD_METIS : CHOLMOD_AMD;
+    c.method[1].ordering = CHOLMOD_METIS;
+    /* a pattern-only matrix: CHOLMOD_PATTERN needs no values */
+    A = cholmod_allocate_sparse((size_t) n, (size_t) n, nnz, 0, 1, 1, CHOLMOD_PATTERN, &c);
+    if (A == NULL) {
+        st = map_failure(c.status);
+    } else {
+        memcpy(A->p, colptr, ((size_t) n + 1) * sizeof(int));
+        if (nnz > 0) memcpy(A->i, rowind, nnz * sizeof(int));
+        L = cholmod_analyze(A, &c);
+        if (L == NULL || c.status < CHOLMOD_OK) {
+            st = map_failure(c.status);
+        } else {
+            memcpy(perm, L->Perm, (size_t) n * sizeof(int));
+        }
+        cholmod_free_factor(&L, &c);
+        cholmod_free_sparse(&A, &c);
+    }
+    cholmod_finish(&c);
+    fesetenv(&env);
+    return st;
+}
+
+/* The final elimination order of the factor: perm[k] (0-based) is eliminated k-th. */
+int dualsig_chol_perm(const void *handle, int *perm)
+{
+    const dschol_handle *h = handle;
+    if (h == NULL || h->L == NULL || perm == NULL) return DSCHOL_ERR_INPUT;
+    memcpy(perm, h->L->Perm, (size_t) h->n * sizeof(int));
+    return DSCHOL_OK;
+}
+
+/*
+ * The trailing na x na block of the supernodal factor L (rows and columns n-na .. n-1 of
+ * the permuted matrix), copied into the dense column-major array ltt[na * na], lower
+ * triangle, zeros above the diagonal.  With the unknowns T eliminated last,
+ * P A P' = L L' gives the Schur complement of A onto T as ltt ltt'.
+ */
+int dualsig_chol_trailing(const void *handle, int na, double *ltt)
+{
+    const dschol_handle *h = handle;
+    const int *super, *pi, *px, *ls;
+    const double *lx;
+    size_t first, s;
+    int j, r;
+
+    if (h == NULL || ltt == NULL || na < 0 || na > h->n) return DSCHOL_ERR_INPUT;
+    if (!h->factored) return DSCHOL_ERR_NOT_FACTORED;
+    if (!h->L->is_super || !h->L->is_ll) return DSCHOL_ERR_CHOLMOD;
+    memset(ltt, 0, (size_t) na * (size_t) na * sizeof(double));
+    first = (size_t) (h->n - na);
+    super = h->L->super;
+    pi = h->L->pi;
+    px = h->L->px;
+    ls = h->L->s;
+    lx = h->L->x;
+    for (s = 0; s < h->L->nsuper; s++) {
+        int k1 = super[s], k2 = super[s + 1], nsrow = pi[s + 1] - pi[s];
+        if ((size_t) k2 <= first) continue;
+        for (j = k1 > (int) first ? k1 : (int) first; j < k2; j++) {
+            const double *col = lx + px[s] + (size_t) (j - k1) * (size_t) nsrow;
+            /* rows of the supernode: ls[pi[s] .. pi[s+1]-1], the first k2-k1 are k1..k2-1 */
+            for (r = j - k1; r < nsrow; r++) {
+                int row = ls[pi[s] + r];
+                ltt[(size_t) (row - (int) first) + (size_t) (j - (int) first) * (size_t) na] = col[r];
+            }
+        }
+    }
+    return DSCHOL_OK;
+}
+
+/*
+ * One triangular solve with the factor, in the permuted numbering: upper = 0 solves
+ * L x = b, upper = 1 solves L' x = b (b and x of length n; the caller applies P).
+ */
+int dualsig_chol_solve_tri(void *handle, int upper, const double *b, double *x)
+{
+    dschol_handle *h = handle;
+    cholmod_dense B;
+    fenv_t env;
+    int ok;
+
+    if (h == NULL) return DSCHOL_ERR_INPUT;
+    if (!h->factored) return DSCHOL_ERR_NOT_FACTORED;
+    if (h->n == 0) return DSCHOL_OK;
+    if (b == NULL || x == NULL || !h->L->is_ll) return DSCHOL_ERR_INPUT;
+    memset(&B, 0, sizeof B);
+    B.nrow = (size_t) h->n;
+    B.ncol = 1;
+    B.nzmax = (size_t) h->n;
+    B.d = (size_t) h->n;
+    B.x = (void *) b;
+    B.xtype = CHOLMOD_REAL;
+    B.dtype = CHOLMOD_DOUBLE;
+    feholdexcept(&env);
+    ok = cholmod_solve2(upper ? CHOLMOD_Lt : CHOLMOD_L, h->L, &B, NULL, &h->X, NULL, &h->Y, &h->E, &h->c);
+    fesetenv(&env);
+    if (!ok || h->X == NULL || h->c.status < CHOLMOD_OK) return map_failure(h->c.status);
+    memcpy(x, h->X->x, (size_t) h->n * sizeof(double));
+    return DSCHOL_OK;
 }

@@ -297,6 +297,7 @@ contains
     end select
     aset%ordering = dset%ordering
     d2set%ordering = dset%ordering
+    d2set%inner = cfg%dual_inner
     nonconverged = 0
 
     write (unit, '(a)') 'dualsig: run "' // trim(title) // '" (scene ' // trim(scene%name) // &
@@ -418,7 +419,9 @@ contains
       parts = parts // '; dual analysis: P1 vector fields, ' // dual_method // &
         ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
     else if (cfg%dual_enabled) then
-      parts = parts // '; dual analysis: equilibrium elements, ' // dual_method // &
+      parts = parts // '; dual analysis: equilibrium elements, ' // dual_method
+      if (dual_method == 'augmented') parts = parts // ' (inner solver ' // trim(cfg%dual_inner) // ')'
+      parts = parts // &
         '; lambda^h = lambda^f + q^h admissible; bounds (6.26), Theorem 6.4'
     else
       parts = parts // '; dual analysis not requested'

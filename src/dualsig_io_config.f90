@@ -34,7 +34,7 @@ module dualsig_io_config
   character(len=*), parameter :: solver_items = &
     'method omega omega_auto tol max_iter check_every nested'
   character(len=*), parameter :: dual_items = &
-    'enabled method rho tol tol_h2 max_iter ordering'
+    'enabled method rho tol tol_h2 max_iter ordering inner'
 
   type :: run_config_t
     character(len=:), allocatable :: source_file   !! the namelist file
@@ -74,6 +74,7 @@ module dualsig_io_config
     real(dp) :: dual_tol_h2 = 1.0e-4_dp
     integer :: dual_max_iter = 20000
     character(len=16) :: dual_ordering = 'nd'     !! every CHOLMOD factorisation of the run
+    character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
   end type run_config_t
 
   type :: group_t
@@ -179,7 +180,7 @@ contains
     lines(4) = '&dual enabled = ' // ltoa(cfg%dual_enabled) // ', method = ''' // trim(cfg%dual_method) // &
       ''', rho = ' // rtoa(cfg%dual_rho) // ', tol = ' // rtoa(cfg%dual_tol) // ', tol_h2 = ' // &
       rtoa(cfg%dual_tol_h2) // ', max_iter = ' // itoa(cfg%dual_max_iter) // ', ordering = ''' // &
-      trim(cfg%dual_ordering) // ''' /'
+      trim(cfg%dual_ordering) // ''', inner = ''' // trim(cfg%dual_inner) // ''' /'
     if (any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) then
       ! the names continue the &run group on a line of their own
       lines(1) = lines(1)(1:len_trim(lines(1)) - 2)
@@ -610,10 +611,10 @@ contains
     character(len=*), intent(out) :: msg
     character(len=max_line_len + 16) :: rec(size(assign) + 2)
     logical :: enabled
-    character(len=wide) :: method, ordering
+    character(len=wide) :: method, ordering, inner
     real(dp) :: rho, tol, tol_h2
     integer :: max_iter, k
-    namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering
+    namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering, inner
     logical :: saved_halting(size(ieee_usual))
     rec(1) = '&dual'
     do k = 1, size(assign)
@@ -628,6 +629,7 @@ contains
     tol_h2 = cfg%dual_tol_h2
     max_iter = cfg%dual_max_iter
     ordering = cfg%dual_ordering
+    inner = cfg%dual_inner
     call fp_traps_off(saved_halting)
     read (rec, nml=dual, iostat=ios, iomsg=msg)
     call ieee_set_halting_mode(ieee_usual, saved_halting)
@@ -636,7 +638,8 @@ contains
       call bad_value('a finite real number', ios, msg)
       return
     end if
-    if (too_long(method, cfg%dual_method) .or. too_long(ordering, cfg%dual_ordering)) then
+    if (too_long(method, cfg%dual_method) .or. too_long(ordering, cfg%dual_ordering) .or. &
+        too_long(inner, cfg%dual_inner)) then
       call bad_value('a shorter string', ios, msg)
       return
     end if
@@ -647,6 +650,7 @@ contains
     cfg%dual_tol_h2 = tol_h2
     cfg%dual_max_iter = max_iter
     cfg%dual_ordering = ordering(1:len(cfg%dual_ordering))
+    cfg%dual_inner = inner(1:len(cfg%dual_inner))
   end subroutine read_dual_group
 
   !> Range checks of a run configuration, each naming the variable and what is expected.
@@ -716,6 +720,9 @@ contains
     else if (.not. any(cfg%dual_ordering == [character(len=16) :: 'nd', 'best', 'amd', 'metis', 'natural'])) then
       call set_error(st, DS_ERR_INPUT, where // '&dual ordering = "' // trim(cfg%dual_ordering) // &
         '"; expected nd, best, amd, metis or natural')
+    else if (.not. any(cfg%dual_inner == [character(len=16) :: 'schur', 'active_set'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual inner = "' // trim(cfg%dual_inner) // &
+        '"; expected schur or active_set')
     end if
   end subroutine validate
 
@@ -747,7 +754,7 @@ contains
     character(len=*), intent(in) :: name
     character(len=:), allocatable :: s
     select case (trim(name))
-    case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering')
+    case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering', 'inner')
       s = 'a quoted string'
     case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2')
       s = 'a real number'

@@ -55,6 +55,7 @@ module dualsig_problem_dual_p2
     real(dp) :: penalty = 0.0_dp               !! augmented Lagrangian r, 0 = automatic
     real(dp) :: defect_tol = 1.0e-13_dp        !! augmented: relative divergence defect
     integer :: ordering = ORDERING_AMD          !! CHOLMOD ordering (AMD: cheapest analysis, see README "Performance")
+    character(len=16) :: inner = 'schur'        !! augmented: inner solver, 'schur' or 'active_set'
   end type dual_p2_settings_t
 
   type :: dual_p2_result_t
@@ -175,6 +176,7 @@ contains
       aug%r = settings%penalty
       aug%tol = settings%defect_tol
       aug%ordering = settings%ordering
+      aug%inner = settings%inner
       if (settings%ordering == ORDERING_GEOMETRIC) then
         call edge_end_ordering(mesh, a, aug%ordering, aug%perm, st)
         if (st%code /= 0) return

@@ -4,10 +4,19 @@
 !>
 !> with A symmetric positive semi-definite on ker D and positive definite on the whole
 !> space.  Lagrangian L_r = 1/2 x^T A x - b^T x - mu^T D x + r/2 ||D x||^2; each outer step
-!> minimises L_r over the bounds by the primal-dual active-set method with the matrix
-!> A + r D^T D (same pattern as A when every row of D couples unknowns that A couples),
-!> warm-started from the previous x, then updates mu <- mu - r D x.  A large r makes the
-!> number of outer steps small and independent of h.
+!> minimises L_r over the bounds with the matrix A + r D^T D (same pattern as A when every
+!> row of D couples unknowns that A couples), warm-started from the previous x, then
+!> updates mu <- mu - r D x.  A large r makes the number of outer steps small and
+!> independent of h.
+!>
+!> Inner solvers (both factorise A + r D^T D and keep the factor over the outer steps):
+!> - 'schur' (default while the bounded unknowns are at most max_schur): the bounded
+!>   unknowns are eliminated last, their dense Schur complement is read off the factor and
+!>   each outer step solves the QP exactly on it (dualsig_solver_boundary_schur): one
+!>   factorisation in all, one forward and one backward substitution per outer step,
+!>   whatever the active set does;
+!> - 'active_set': the primal-dual active-set method on the whole matrix, changes of the
+!>   active set bordered on the kept factor (refactorised when they grow).
 !>
 !> Stopping test: ||D x||_2 <= tol * || |D| |x| ||_2 (the divergence defect relative to
 !> the size of the terms that cancel in it).
@@ -17,6 +26,9 @@ module dualsig_solver_augmented
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve, &
                                        active_set_workspace_t, active_set_workspace_free
   use dualsig_sparse_direct, only: ORDERING_AMD
+  use dualsig_solver_psor, only: BOUND_LOWER
+  use dualsig_solver_boundary_schur, only: boundary_schur_t, boundary_schur_settings_t, boundary_schur_result_t, &
+                                           boundary_schur_factor, boundary_schur_solve, boundary_schur_free
   use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT
   use dualsig_strings, only: itoa, rtoa
   implicit none
@@ -31,6 +43,8 @@ module dualsig_solver_augmented
     integer :: max_active = 100           !! active-set changes per outer step
     integer :: ordering = ORDERING_AMD
     integer, allocatable :: perm(:)       !! the elimination order when ordering = ORDERING_GIVEN
+    character(len=16) :: inner = 'schur'  !! 'schur' or 'active_set' (see the module header)
+    integer :: max_schur = 4096           !! 'schur' only up to this many bounded unknowns (dense |T|^2)
   end type augmented_settings_t
 
   type :: augmented_result_t
@@ -43,6 +57,8 @@ module dualsig_solver_augmented
     character(len=8) :: ordering = ''
     integer :: nactive = 0
     real(dp) :: kkt_residual = 0.0_dp     !! of the last inner solve
+    character(len=16) :: inner = ''       !! inner solver used
+    integer :: inner_iterations = 0       !! active-set iterations, or dense pivoting iterations ('schur')
   end type augmented_result_t
 
   !> Automatic penalty: r = r_auto_factor * mean(diag A) / mean(diag D^T D).
@@ -64,6 +80,10 @@ contains
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
     type(active_set_workspace_t) :: ws
+    type(boundary_schur_t) :: bs
+    type(boundary_schur_settings_t) :: bset
+    type(boundary_schur_result_t) :: bres
+    logical :: use_schur
     real(dp), allocatable :: mu(:), w(:), rhs(:), dtd_diag(:), absx(:), scale_w(:)
     integer :: i, p, q, outer
     logical :: inner_ok
@@ -74,6 +94,12 @@ contains
       call set_error(st, DS_ERR_INPUT, 'augmented Lagrangian: need r >= 0, tol > 0, max_outer >= 1')
       return
     end if
+    if (trim(settings%inner) /= 'schur' .and. trim(settings%inner) /= 'active_set') then
+      call set_error(st, DS_ERR_INPUT, 'augmented Lagrangian: inner solver "' // trim(settings%inner) // &
+                     '"; expected schur or active_set')
+      return
+    end if
+    use_schur = trim(settings%inner) == 'schur' .and. count(kind == BOUND_LOWER) <= settings%max_schur
     ! penalty scale from the diagonals of A and D^T D
     allocate (dtd_diag(a%n), source=0.0_dp)
     do i = 1, dmat%m
@@ -104,21 +130,46 @@ contains
     inner_ok = .true.
     aset%ordering = settings%ordering
     if (allocated(settings%perm)) aset%perm = settings%perm
+    if (use_schur) then
+      res%inner = 'schur'
+      bset%ordering = settings%ordering
+      if (allocated(settings%perm)) bset%perm = settings%perm
+      call boundary_schur_factor(ar, kind, bset, bs, st)
+      if (.not. is_ok(st)) return
+      res%factorisations = 1
+      res%nnz_factor = bs%chol%nnz_factor
+      res%ordering = bs%chol%ordering
+    else
+      res%inner = 'active_set'
+    end if
     do outer = 1, settings%max_outer
       call rect_matvec_t(dmat, mu, rhs)
       rhs = rhs + b
-      call active_set_solve(ar, rhs, kind, bnd, x, aset, ares, st, ws)
-      if (.not. is_ok(st)) then
-        call active_set_workspace_free(ws)
-        return
+      if (use_schur) then
+        call boundary_schur_solve(bs, ar, rhs, bnd, x, bset, bres, st)
+        if (.not. is_ok(st)) then
+          call boundary_schur_free(bs)
+          return
+        end if
+        res%inner_iterations = res%inner_iterations + bres%qp_iterations
+        res%nactive = bres%nactive
+        res%kkt_residual = bres%kkt_residual
+        inner_ok = inner_ok .and. bres%converged
+      else
+        call active_set_solve(ar, rhs, kind, bnd, x, aset, ares, st, ws)
+        if (.not. is_ok(st)) then
+          call active_set_workspace_free(ws)
+          return
+        end if
+        res%factorisations = res%factorisations + ares%factorisations
+        res%inner_iterations = res%inner_iterations + ares%iterations
+        res%nnz_factor = ares%nnz_factor
+        res%ordering = ares%ordering
+        res%nactive = ares%nactive
+        res%kkt_residual = ares%kkt_residual
+        inner_ok = inner_ok .and. ares%converged
       end if
       res%outer = outer
-      res%factorisations = res%factorisations + ares%factorisations
-      res%nnz_factor = ares%nnz_factor
-      res%ordering = ares%ordering
-      res%nactive = ares%nactive
-      res%kkt_residual = ares%kkt_residual
-      inner_ok = inner_ok .and. ares%converged
       call rect_matvec(dmat, x, w)
       absx = abs(x)
       call abs_matvec(dmat, absx, scale_w)
@@ -130,6 +181,7 @@ contains
       mu = mu - res%r * w
     end do
     call active_set_workspace_free(ws)
+    call boundary_schur_free(bs)
     if (.not. inner_ok) then
       call set_warning(st, DS_WARN_NOT_CONVERGED, 'augmented Lagrangian: an inner active-set solve did not ' // &
         'converge (cycle or limit); relative defect ' // rtoa(res%defect) // ' after ' // itoa(res%outer) // ' outer steps')

@@ -33,7 +33,9 @@ module dualsig_sparse_direct
   private
 
   public :: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, cholesky_free
-  public :: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GIVEN, ORDERING_GEOMETRIC
+  public :: cholesky_order, cholesky_permutation, cholesky_trailing_block, cholesky_solve_triangular
+  public :: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GIVEN, ORDERING_GEOMETRIC, &
+            ORDERING_GIVEN_EXACT
 
   !> Fill-reducing orderings for `cholesky_factor`.
   integer, parameter :: ORDERING_BEST = 0     !! AMD and METIS both tried, the one with less fill kept
@@ -44,6 +46,8 @@ module dualsig_sparse_direct
   !> Not a CHOLMOD ordering: asks the problem layer (which knows the points of the unknowns)
   !> for a geometric nested dissection (dualsig_ordering_geometric), passed on as ORDERING_GIVEN.
   integer, parameter :: ORDERING_GEOMETRIC = 8
+  !> The caller's permutation kept exactly (no post-ordering), e.g. to eliminate a set last.
+  integer, parameter :: ORDERING_GIVEN_EXACT = 9
 
   ! Status codes of the C shim (see src/dualsig_cholmod_shim.c).
   integer(c_int), parameter :: SHIM_OK = 0, SHIM_ERR_INPUT = 1, SHIM_ERR_NOMEM = 2, &
@@ -106,6 +110,39 @@ module dualsig_sparse_direct
       import :: c_ptr
       type(c_ptr), intent(inout) :: handle
     end subroutine shim_free
+
+    function shim_order(n, colptr, rowind, ordering, perm) result(code) bind(c, name='dualsig_chol_order')
+      import :: c_int
+      integer(c_int), value, intent(in) :: n
+      integer(c_int), intent(in) :: colptr(*), rowind(*)
+      integer(c_int), value, intent(in) :: ordering
+      integer(c_int), intent(out) :: perm(*)
+      integer(c_int) :: code
+    end function shim_order
+
+    function shim_perm(handle, perm) result(code) bind(c, name='dualsig_chol_perm')
+      import :: c_int, c_ptr
+      type(c_ptr), value, intent(in) :: handle
+      integer(c_int), intent(out) :: perm(*)
+      integer(c_int) :: code
+    end function shim_perm
+
+    function shim_trailing(handle, na, ltt) result(code) bind(c, name='dualsig_chol_trailing')
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value, intent(in) :: handle
+      integer(c_int), value, intent(in) :: na
+      real(c_double), intent(out) :: ltt(*)
+      integer(c_int) :: code
+    end function shim_trailing
+
+    function shim_solve_tri(handle, upper, b, x) result(code) bind(c, name='dualsig_chol_solve_tri')
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value, intent(in) :: handle
+      integer(c_int), value, intent(in) :: upper
+      real(c_double), intent(in) :: b(*)
+      real(c_double), intent(inout) :: x(*)
+      integer(c_int) :: code
+    end function shim_solve_tri
   end interface
 
   !> Solve A x = b with a factor from `cholesky_factor`: b(:), x(:) for one right-hand
@@ -125,7 +162,7 @@ contains
     type(cholesky_t), intent(inout) :: chol !! the factor
     type(status_t), intent(out) :: st       !! DS_OK or an error
     integer, intent(in), optional :: ordering !! ORDERING_BEST (default), _AMD, _METIS, _NATURAL, _GIVEN
-    integer, intent(in), optional :: perm(:)  !! ORDERING_GIVEN: perm(k) = unknown eliminated k-th (1-based)
+    integer, intent(in), optional :: perm(:)  !! ORDERING_GIVEN(_EXACT): perm(k) = unknown eliminated k-th (1-based)
     integer(c_int), allocatable, target :: perm0(:)
     type(c_ptr) :: perm_ptr
     integer(c_int), allocatable :: colptr(:), rowind(:)
@@ -137,7 +174,7 @@ contains
     ord = ORDERING_BEST
     if (present(ordering)) ord = int(ordering, c_int)
     perm_ptr = c_null_ptr
-    if (ord == ORDERING_GIVEN) then
+    if (ord == ORDERING_GIVEN .or. ord == ORDERING_GIVEN_EXACT) then
       if (.not. present(perm)) then
         call set_error(st, DS_ERR_INPUT, 'cholesky: ORDERING_GIVEN needs the permutation perm')
         return
@@ -151,7 +188,7 @@ contains
       perm_ptr = c_loc(perm0)
     else if (ord < ORDERING_BEST .or. ord > ORDERING_NATURAL) then
       call set_error(st, DS_ERR_INPUT, 'cholesky: unknown ordering code ' // itoa(int(ord)) // &
-                     ' (expected 0 best, 1 amd, 2 metis, 3 natural, 7 given)')
+                     ' (expected 0 best, 1 amd, 2 metis, 3 natural, 7 given, 9 given exactly)')
       return
     end if
     if (.not. pattern_ok(a, st)) return
@@ -253,6 +290,92 @@ contains
     chol%nnz_a = 0
     chol%pattern_sig = 0
   end subroutine cholesky_free
+
+  !> The fill-reducing ordering CHOLMOD would use for `a` (ORDERING_BEST, _AMD or _METIS),
+  !> post-ordered, without a numeric factorisation: perm(k) = unknown eliminated k-th.
+  subroutine cholesky_order(a, ordering, perm, st)
+    type(csr_t), intent(in) :: a            !! the pattern (lower triangle read)
+    integer, intent(in) :: ordering         !! ORDERING_BEST, ORDERING_AMD or ORDERING_METIS
+    integer, allocatable, intent(out) :: perm(:) !! (n) 1-based elimination order
+    type(status_t), intent(out) :: st       !! DS_OK or an error
+    integer(c_int), allocatable :: colptr(:), rowind(:), perm0(:)
+    integer(c_int) :: code
+    if (ordering < ORDERING_BEST .or. ordering > ORDERING_METIS) then
+      call set_error(st, DS_ERR_INPUT, 'cholesky_order: ordering code ' // itoa(ordering) // &
+                     ' (expected 0 best, 1 amd, 2 metis)')
+      return
+    end if
+    if (.not. pattern_ok(a, st)) return
+    colptr = int(a%rowptr - 1, c_int)
+    rowind = int(a%col - 1, c_int)
+    allocate (perm0(max(a%n, 1)))
+    code = shim_order(int(a%n, c_int), colptr, rowind, int(ordering, c_int), perm0)
+    if (code /= SHIM_OK) then
+      call shim_error(st, code, -1, a%n)
+      return
+    end if
+    perm = int(perm0(1:a%n)) + 1
+  end subroutine cholesky_order
+
+  !> The final elimination order of a factor (the given or computed ordering combined with
+  !> CHOLMOD's post-ordering): perm(k) = unknown eliminated k-th, 1-based.
+  subroutine cholesky_permutation(chol, perm, st)
+    type(cholesky_t), intent(in) :: chol    !! a factor
+    integer, allocatable, intent(out) :: perm(:) !! (n) elimination order
+    type(status_t), intent(out) :: st       !! DS_OK or an error
+    integer(c_int), allocatable :: perm0(:)
+    integer(c_int) :: code
+    if (.not. c_associated(chol%handle)) then
+      call set_error(st, DS_ERR_INPUT, 'cholesky_permutation: no factor')
+      return
+    end if
+    allocate (perm0(max(chol%n, 1)))
+    code = shim_perm(chol%handle, perm0)
+    if (code /= SHIM_OK) then
+      call shim_error(st, code, -1, chol%n)
+      return
+    end if
+    perm = int(perm0(1:chol%n)) + 1
+  end subroutine cholesky_permutation
+
+  !> The trailing na x na block L_TT of the factor P A P^T = L L^T (the last na unknowns of
+  !> the elimination order), dense lower triangular with zeros above the diagonal.  Then
+  !> L_TT L_TT^T is the Schur complement of A onto those unknowns.
+  subroutine cholesky_trailing_block(chol, na, ltt, st)
+    type(cholesky_t), intent(in) :: chol    !! a successful factorisation
+    integer, intent(in) :: na               !! 0 <= na <= n
+    real(dp), intent(out) :: ltt(:,:)       !! (na, na)
+    type(status_t), intent(out) :: st       !! DS_OK or an error
+    integer(c_int) :: code
+    if (.not. c_associated(chol%handle)) then
+      call set_error(st, DS_ERR_INPUT, 'cholesky_trailing_block: no factor')
+      return
+    end if
+    if (na < 0 .or. na > chol%n .or. size(ltt, 1) /= na .or. size(ltt, 2) /= na) then
+      call set_error(st, DS_ERR_INPUT, 'cholesky_trailing_block: block of order ' // itoa(na) // &
+                     ' with a ' // itoa(size(ltt, 1)) // ' x ' // itoa(size(ltt, 2)) // ' array, factor of order ' // &
+                     itoa(chol%n))
+      return
+    end if
+    if (na == 0) return
+    code = shim_trailing(chol%handle, int(na, c_int), ltt)
+    if (code /= SHIM_OK) call shim_error(st, code, -1, chol%n)
+  end subroutine cholesky_trailing_block
+
+  !> One triangular solve in the permuted numbering of the factor P A P^T = L L^T:
+  !> x = L^{-1} b (transposed = .false.) or x = L^{-T} b (transposed = .true.).  The caller
+  !> applies the permutation (`cholesky_permutation`).
+  subroutine cholesky_solve_triangular(chol, transposed, b, x, st)
+    type(cholesky_t), intent(in) :: chol    !! a successful factorisation
+    logical, intent(in) :: transposed       !! solve with L^T instead of L
+    real(dp), intent(in) :: b(:)            !! (n) right-hand side, permuted numbering
+    real(dp), intent(out) :: x(:)           !! (n) solution, permuted numbering
+    type(status_t), intent(out) :: st       !! DS_OK or an error
+    integer(c_int) :: code
+    if (.not. solve_args_ok(chol, size(b), size(x), 1, 1, st)) return
+    code = shim_solve_tri(chol%handle, merge(1_c_int, 0_c_int, transposed), b, x)
+    if (code /= SHIM_OK) call shim_error(st, code, -1, chol%n)
+  end subroutine cholesky_solve_triangular
 
   ! ---------------------------------------------------------------- private helpers
 

@@ -1,0 +1,211 @@
+!> Bound-constrained QP whose bounds touch only a small set T of the unknowns (the
+!> O(sqrt N) boundary unknowns of a Signorini problem):
+!>
+!>     minimise 1/2 x^T M x - b^T x   subject to   x_i >= bnd_i  for i in T  (kind BOUND_LOWER),
+!>                                                 the other unknowns free   (kind BOUND_FREE)
+!>
+!> solved exactly with ONE sparse Cholesky factorisation, whatever the active set:
+!> - factorise P M P^T = L L^T with a fill-reducing ordering in which the unknowns of T are
+!>   eliminated last (CHOLMOD, dualsig_sparse_direct).  With the blocks of the permuted
+!>   matrix (I = the free unknowns, T last), L = [L_II 0; L_TI L_TT], and the Schur
+!>   complement of M onto T is  S = M_TT - M_TI M_II^{-1} M_IT = L_TT L_TT^T  (dense,
+!>   |T| x |T|), read off the factor;
+!> - forward solve z = L^{-1} P b.  Eliminating x_I = M_II^{-1} (b_I - M_IT x_T), the QP in
+!>   x_T alone is  minimise 1/2 x_T^T S x_T - g^T x_T, x_T >= bnd_T, with
+!>   g = b_T - M_TI M_II^{-1} b_I = L_TT z_T;
+!> - the dense QP is solved exactly (dualsig_solver_dense_qp, block principal pivoting);
+!> - back substitution with z_T replaced by L_TT^T x_T:  x = P^T L^{-T} [z_I; L_TT^T x_T]
+!>   gives x_I = M_II^{-1} (b_I - M_IT x_T).
+!> A solve costs one forward and one backward substitution (one plain solve) plus the
+!> dense QP; the active set of the dense QP is kept as the next solve's first guess, so
+!> a sequence of right-hand sides (augmented Lagrangian) reuses factor, S and active set.
+module dualsig_solver_boundary_schur
+  use dualsig_kinds, only: dp
+  use dualsig_sparse, only: csr_t
+  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free, cholesky_order, &
+                                   cholesky_permutation, cholesky_trailing_block, cholesky_solve_triangular, &
+                                   ORDERING_AMD, ORDERING_GIVEN, ORDERING_GIVEN_EXACT
+  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER, kkt_residual
+  use dualsig_solver_dense_qp, only: dense_qp_settings_t, dense_qp_result_t, dense_bound_qp
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC
+  use dualsig_strings, only: itoa
+  implicit none
+  private
+
+  public :: boundary_schur_t, boundary_schur_settings_t, boundary_schur_result_t, boundary_schur_factor, &
+            boundary_schur_solve, boundary_schur_free
+
+  type :: boundary_schur_settings_t
+    integer :: ordering = ORDERING_AMD       !! fill-reducing ordering (dualsig_sparse_direct); T is moved last
+    integer, allocatable :: perm(:)          !! the elimination order when ordering = ORDERING_GIVEN
+    type(dense_qp_settings_t) :: qp          !! the dense QP on T
+  end type boundary_schur_settings_t
+
+  type :: boundary_schur_result_t
+    integer :: qp_iterations = 0             !! dense factorisations of the QP on T
+    integer :: single_pivots = 0             !! of which by Murty's rule
+    logical :: converged = .false.
+    integer :: nactive = 0                   !! bounded unknowns at their bound
+    real(dp) :: kkt_residual = 0.0_dp        !! relative KKT residual of the returned x
+  end type boundary_schur_result_t
+
+  !> The factor of M with T last, the Schur complement onto T and the last active set.
+  !> Free with boundary_schur_free.
+  type :: boundary_schur_t
+    type(cholesky_t) :: chol
+    integer :: n = 0                         !! order of M
+    integer :: nt = 0                        !! |T|
+    integer, allocatable :: perm(:)          !! (n) final elimination order, T = perm(n-nt+1:n)
+    real(dp), allocatable :: ltt(:,:)        !! (nt, nt) trailing block L_TT of the factor
+    real(dp), allocatable :: s(:,:)          !! (nt, nt) S = L_TT L_TT^T, both triangles
+    logical, allocatable :: active(:)        !! (nt) active set of the last solve
+    logical :: have_active = .false.
+  end type boundary_schur_t
+
+contains
+
+  !> Factorise m with the bounded unknowns (kind = BOUND_LOWER) eliminated last and form
+  !> their Schur complement.  Only BOUND_FREE and BOUND_LOWER kinds are accepted.
+  subroutine boundary_schur_factor(m, kind, settings, bs, st)
+    type(csr_t), intent(in) :: m                    !! symmetric positive definite
+    integer, intent(in) :: kind(:)                  !! (n) BOUND_FREE or BOUND_LOWER
+    type(boundary_schur_settings_t), intent(in) :: settings
+    type(boundary_schur_t), intent(inout) :: bs     !! the factorisation (freed first)
+    type(status_t), intent(out) :: st
+    integer, allocatable :: base(:), cperm(:)
+    integer :: nt, nf, k, i
+    external :: dsyrk
+
+    call boundary_schur_free(bs)
+    if (size(kind) /= m%n .or. any(kind /= BOUND_FREE .and. kind /= BOUND_LOWER)) then
+      call set_error(st, DS_ERR_INPUT, 'boundary_schur_factor: kind must have ' // itoa(m%n) // &
+                     ' entries, each BOUND_FREE or BOUND_LOWER')
+      return
+    end if
+    if (settings%ordering == ORDERING_GIVEN) then
+      if (.not. allocated(settings%perm)) then
+        call set_error(st, DS_ERR_INPUT, 'boundary_schur_factor: ORDERING_GIVEN needs perm')
+        return
+      end if
+      base = settings%perm
+      if (size(base) /= m%n) then
+        call set_error(st, DS_ERR_INPUT, 'boundary_schur_factor: perm has ' // itoa(size(base)) // &
+                       ' entries, the matrix has order ' // itoa(m%n))
+        return
+      end if
+    else
+      call cholesky_order(m, settings%ordering, base, st)
+      if (.not. is_ok(st)) return
+    end if
+    ! the fill-reducing order of the free unknowns, then the bounded ones (in that order too)
+    nt = count(kind == BOUND_LOWER)
+    nf = m%n - nt
+    allocate (cperm(m%n))
+    nf = 0
+    do k = 1, m%n
+      if (kind(base(k)) == BOUND_FREE) then
+        nf = nf + 1
+        cperm(nf) = base(k)
+      end if
+    end do
+    do k = 1, m%n
+      if (kind(base(k)) == BOUND_LOWER) then
+        nf = nf + 1
+        cperm(nf) = base(k)
+      end if
+    end do
+    ! exactly this order: a post-ordering would move T when S is not structurally dense
+    call cholesky_factor(m, bs%chol, st, ORDERING_GIVEN_EXACT, cperm)
+    if (.not. is_ok(st)) return
+    call cholesky_permutation(bs%chol, bs%perm, st)
+    if (.not. is_ok(st)) return
+    if (any(kind(bs%perm(m%n - nt + 1:m%n)) /= BOUND_LOWER)) then
+      call set_error(st, DS_ERR_NUMERIC, 'boundary_schur_factor: CHOLMOD did not keep the bounded unknowns ' // &
+                     'at the end of the elimination order')
+      call boundary_schur_free(bs)
+      return
+    end if
+    bs%n = m%n
+    bs%nt = nt
+    allocate (bs%ltt(nt, nt), bs%s(nt, nt), bs%active(nt))
+    call cholesky_trailing_block(bs%chol, nt, bs%ltt, st)
+    if (.not. is_ok(st)) return
+    if (nt > 0) then
+      call dsyrk('L', 'N', nt, nt, 1.0_dp, bs%ltt, nt, 0.0_dp, bs%s, nt)
+      do i = 1, nt
+        bs%s(i, i + 1:nt) = bs%s(i + 1:nt, i)
+      end do
+    end if
+    bs%have_active = .false.
+  end subroutine boundary_schur_factor
+
+  !> Solve the QP for the right-hand side b with the factorisation of `bs`.  x: in, the
+  !> start (its bounded unknowns at their bound give the first active set unless a
+  !> previous solve left one); out, the solution, exactly feasible.
+  subroutine boundary_schur_solve(bs, m, b, bnd, x, settings, res, st)
+    type(boundary_schur_t), intent(inout) :: bs     !! from boundary_schur_factor (same m)
+    type(csr_t), intent(in) :: m                    !! the matrix (for the KKT residual only)
+    real(dp), intent(in) :: b(:)                    !! (n) right-hand side
+    real(dp), intent(in) :: bnd(:)                  !! (n) lower bounds of the bounded unknowns
+    real(dp), intent(inout) :: x(:)                 !! (n) start / solution
+    type(boundary_schur_settings_t), intent(in) :: settings
+    type(boundary_schur_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    type(dense_qp_result_t) :: qres
+    real(dp), allocatable :: z(:), w(:), g(:), xt(:), lt(:)
+    integer, allocatable :: kind(:)
+    integer :: n, nt, t0
+    external :: dtrmv
+
+    n = bs%n
+    nt = bs%nt
+    if (n == 0 .or. size(b) /= n .or. size(bnd) /= n .or. size(x) /= n .or. m%n /= n) then
+      call set_error(st, DS_ERR_INPUT, 'boundary_schur_solve: no factorisation, or sizes differ from its ' // itoa(n))
+      return
+    end if
+    t0 = n - nt
+    allocate (z(n), w(n))
+    ! z = L^{-1} P b
+    w = b(bs%perm)
+    call cholesky_solve_triangular(bs%chol, .false., w, z, st)
+    if (.not. is_ok(st)) return
+    lt = bnd(bs%perm(t0 + 1:n))
+    if (nt > 0) then
+      ! g = L_TT z_T
+      g = z(t0 + 1:n)
+      call dtrmv('L', 'N', 'N', nt, bs%ltt, nt, g, 1)
+      if (.not. bs%have_active) bs%active = x(bs%perm(t0 + 1:n)) <= lt
+      allocate (xt(nt))
+      call dense_bound_qp(bs%s, g, lt, bs%active, xt, settings%qp, qres, st)
+      if (.not. is_ok(st)) return
+      bs%have_active = .true.
+      res%qp_iterations = qres%iterations
+      res%single_pivots = qres%single_pivots
+      res%converged = qres%converged
+      res%nactive = qres%nactive
+      ! z_T = L_TT^T x_T, then x = P^T L^{-T} z
+      z(t0 + 1:n) = xt
+      call dtrmv('L', 'T', 'N', nt, bs%ltt, nt, z(t0 + 1:n), 1)
+    else
+      res%converged = .true.
+    end if
+    call cholesky_solve_triangular(bs%chol, .true., z, w, st)
+    if (.not. is_ok(st)) return
+    x(bs%perm) = w
+    if (nt > 0) x(bs%perm(t0 + 1:n)) = xt          ! exactly the QP's feasible values
+    allocate (kind(n), source=BOUND_FREE)
+    kind(bs%perm(t0 + 1:n)) = BOUND_LOWER
+    res%kkt_residual = kkt_residual(m, b, kind, bnd, x, w)
+  end subroutine boundary_schur_solve
+
+  !> Release the factor and the dense blocks.
+  subroutine boundary_schur_free(bs)
+    type(boundary_schur_t), intent(inout) :: bs
+    call cholesky_free(bs%chol)
+    if (allocated(bs%perm)) deallocate (bs%perm)
+    if (allocated(bs%ltt)) deallocate (bs%ltt, bs%s, bs%active)
+    bs%n = 0
+    bs%nt = 0
+    bs%have_active = .false.
+  end subroutine boundary_schur_free
+end module dualsig_solver_boundary_schur
