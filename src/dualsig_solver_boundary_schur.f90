@@ -73,7 +73,7 @@ contains
     type(boundary_schur_t), intent(inout) :: bs     !! the factorisation (freed first)
     type(status_t), intent(out) :: st
     integer, allocatable :: base(:), cperm(:)
-    integer :: nt, nf, k, i
+    integer :: nt, i
     external :: dsyrk
 
     call boundary_schur_free(bs)
@@ -99,21 +99,7 @@ contains
     end if
     ! the fill-reducing order of the free unknowns, then the bounded ones (in that order too)
     nt = count(kind == BOUND_LOWER)
-    nf = m%n - nt
-    allocate (cperm(m%n))
-    nf = 0
-    do k = 1, m%n
-      if (kind(base(k)) == BOUND_FREE) then
-        nf = nf + 1
-        cperm(nf) = base(k)
-      end if
-    end do
-    do k = 1, m%n
-      if (kind(base(k)) == BOUND_LOWER) then
-        nf = nf + 1
-        cperm(nf) = base(k)
-      end if
-    end do
+    cperm = [pack(base, kind(base) == BOUND_FREE), pack(base, kind(base) == BOUND_LOWER)]
     ! exactly this order: a post-ordering would move T when S is not structurally dense
     call cholesky_factor(m, bs%chol, st, ORDERING_GIVEN_EXACT, cperm)
     if (.not. is_ok(st)) return
