@@ -34,6 +34,7 @@ module dualsig_problem_dual_p2
                                           equilibrium_to_local, equilibrium_div_rows_global, &
                                           equilibrium_rows_local, equilibrium_gamma_a_dofs
   use dualsig_particular_field, only: particular_field_t, particular_field_build, lambda_f_at
+  use dualsig_equilibrium_correction, only: equilibrate_divergence
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_strings, only: itoa
   implicit none
@@ -62,6 +63,7 @@ module dualsig_problem_dual_p2
     integer :: factorisations = 0      !! augmented: CHOLMOD (re)factorisations
     real(dp) :: residual = 0.0_dp      !! Uzawa residual
     real(dp) :: defect = 0.0_dp        !! relative divergence defect of the returned field
+    real(dp) :: defect_solver = 0.0_dp !! the same of the solver's field, before equilibrate_divergence
     logical :: converged = .false.
     real(dp) :: rho = 0.0_dp
     real(dp) :: lambda_max = 0.0_dp
@@ -132,6 +134,7 @@ contains
     type(block_diag_spd_t) :: blocks
     type(uzawa_settings_t) :: uset
     type(uzawa_result_t) :: ures
+    type(status_t) :: st_eq
     integer :: t, k
     real(dp) :: t0
 
@@ -214,6 +217,15 @@ contains
         '"; expected augmented or uzawa')
       return
     end select
+    ! the solver's defect, then exact equilibration on Gamma_u and interior edges (own status:
+    ! st may hold the solver's warning)
+    call equilibrium_to_local(map, x, field%beta)
+    res%defect_solver = divergence_defect(d, field%beta)
+    call equilibrate_divergence(mesh, map, d, is_gamma_a, x, st_eq)
+    if (st_eq%code /= 0) then
+      st = st_eq
+      return
+    end if
     call equilibrium_to_local(map, x, field%beta)
     res%defect = divergence_defect(d, field%beta)
     res%seconds_solver = lap(t0)
