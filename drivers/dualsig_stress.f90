@@ -277,7 +277,7 @@ contains
         return
       end if
       o%dual_iters = d2res%iterations
-      o%dual_res = d2res%defect
+      o%dual_res = d2res%defect_solver     ! the solver's defect (the returned field is equilibrated)
       o%dual_conv = d2res%converged .and. st%code == DS_OK
       o%finite = o%finite .and. all_finite(reshape(field%beta, [size(field%beta)]))
       call dual_p2_bounds(mesh, u, field, scene%f, is_gamma_a, tri_rule(bound_degree_p2), b2)
@@ -906,7 +906,7 @@ contains
     write (u, '(a)') '# dualsig stress suite: ' // trim(cmdline)
     write (u, '(a,i0,a,i0,a,f7.1,a)') '# ', nrows, ' cases, ', nfail, ' FAIL, ', wall() - t_start, ' s'
     write (u, '(a)') '# kkt: relative KKT residual of the primal solve; dual_res: P1 dual KKT residual, P2 divergence' // &
-      ' defect, Uzawa residual; eff = sqrt(est)/err_u_H1; -1: not applicable'
+      ' defect of the solver (before equilibration), Uzawa residual; eff = sqrt(est)/err_u_H1; -1: not applicable'
     write (u, '(a28,1x,a34,1x,a4,a9,a10,a10,a11,a11,a11,a9,1x,a7,2x,a)') 'case', 'varied', 'conv', 'iters', 'kkt', &
       'dual_res', 'err_u_H1', 'sqrt(est)', 'eff', 's', 'verdict', 'check'
     do k = 1, nrows

@@ -570,7 +570,7 @@ contains
         nonconverged = nonconverged + 1
         write (unit, '(a,i0,a,es9.2,a)') 'warning: level ', level, ': the dual field has a divergence defect ', &
           dres%defect, ' (relative): lambda_h is not admissible and est is NOT a guaranteed bound' // &
-          ' (plain Uzawa stops on its own residual; method = ''augmented'' is admissible to rounding)'
+          ' (even after the exact equilibration of the solver''s field)'
       end if
       call dual_p2_bounds(mesh, u, field, scene%f, is_gamma_a, bound_rule_p2, bounds)
       if (cfg%vtk) then
@@ -596,9 +596,10 @@ contains
         call set_with_rate('err_q_Q', 'rate_q_Q', dual_p2_error(mesh, field, scene%f, scene%grad_u, bound_rule_p2))
         if (err_energy > 0.0_dp) call table_set(tab, 'eff', sqrt(bounds%est) / err_energy)
       end if
-      write (unit, '(a,i0,a,i0,a,a,a,i0,a,i0,a,es9.2,a,i0,a,i0)') '  dual level ', level, ': ', dres%iterations, &
+      write (unit, '(a,i0,a,i0,a,a,a,i0,a,i0,a,es9.2,a,es9.2,a,i0,a,i0)') '  dual level ', level, ': ', dres%iterations, &
         ' iterations (', dual_method, '), factorisations ', dres%factorisations, ', nnz(L) = ', dres%nnz_factor, &
-        ', divergence defect ', dres%defect, ', constraints ', dres%nconstraints, ', active ', dres%nactive
+        ', divergence defect ', dres%defect, ' (solver ', dres%defect_solver, '), constraints ', dres%nconstraints, &
+        ', active ', dres%nactive
       if (dual_method == 'uzawa') write (unit, '(a,es10.3,a,es10.3,a,es9.2)') '    rho = ', dres%rho, &
         ', lambda_max(B A^-1 B^T) ~ ', dres%lambda_max, ', residual ', dres%residual
       if (dual_method == 'augmented') write (unit, '(a,es10.3,a,a)') '    penalty r = ', dres%penalty, &

@@ -4,18 +4,23 @@
 !> field of dualsig_particular_field (div lambda^f = -f, lambda^f . nu = -g_h exactly on
 !> every Gamma_a edge) and q^h minimises J(q) = 1/2 ||q||^2 + (lambda^f, q) over the
 !> equilibrium elements with q.nu >= g_h on Gamma_a (4.5).  Then lambda^h . nu = q.nu - g_h
-!> >= 0 on Gamma_a and div lambda^h = -f: lambda^h is admissible (in U_2) up to the solver's
-!> divergence defect, and the bound (6.26) is guaranteed.
+!> >= 0 on Gamma_a and div lambda^h = -f: lambda^h is admissible (in U_2) and the bound
+!> (6.26) is guaranteed.  The solver's field has a small divergence defect (rounding, or an
+!> unfinished Uzawa iteration); dualsig_equilibrium_correction removes it exactly by
+!> constant fluxes on Gamma_u and interior edges, so the returned field is admissible to
+!> rounding whichever solver ran (res%defect_solver before, res%defect after).
 !>
 !> Solvers:
 !> - 'augmented' (the fast variant): continuity eliminated by global edge-end fluxes (BDM1),
-!>   the divergence rows by an augmented Lagrangian whose matrix A + r D^T D is factorised by
-!>   CHOLMOD, the Gamma_a rows are simple bounds for the active-set method;
+!>   the divergence rows by an augmented Lagrangian whose matrix A + r D^T D is factorised
+!>   once by CHOLMOD, the Gamma_a rows are simple bounds handled inside each outer step by
+!>   the inner solver: 'schur' (their dense Schur complement, exact QP on it) or
+!>   'active_set' (dualsig_solver_augmented);
 !> - 'uzawa': the paper's Uzawa on (4.8) in the element parameters, with free multipliers
 !>   for D (divergence and continuity rows) and non-negative ones for E (Gamma_a), each
 !>   iteration an element-local solve with the factored A_e (LAPACK).  Its iterate is made
-!>   continuous (the two sides of an edge averaged) and clipped to the Gamma_a bounds; the
-!>   remaining divergence defect is reported.
+!>   continuous (the two sides of an edge averaged), clipped to the Gamma_a bounds and
+!>   equilibrated as above.
 module dualsig_problem_dual_p2
   use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: scalar_field
@@ -34,6 +39,7 @@ module dualsig_problem_dual_p2
                                           equilibrium_to_local, equilibrium_div_rows_global, &
                                           equilibrium_rows_local, equilibrium_gamma_a_dofs
   use dualsig_particular_field, only: particular_field_t, particular_field_build, lambda_f_at
+  use dualsig_equilibrium_correction, only: equilibrate_divergence
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_strings, only: itoa
   implicit none
@@ -61,8 +67,11 @@ module dualsig_problem_dual_p2
   type :: dual_p2_result_t
     integer :: iterations = 0          !! Uzawa iterations, or outer augmented-Lagrangian steps
     integer :: factorisations = 0      !! augmented: CHOLMOD (re)factorisations
+    character(len=16) :: inner = ''    !! augmented: the inner solver used ('schur' or 'active_set')
+    integer :: inner_iterations = 0    !! augmented: dense pivoting ('schur') or active-set iterations in all
     real(dp) :: residual = 0.0_dp      !! Uzawa residual
     real(dp) :: defect = 0.0_dp        !! relative divergence defect of the returned field
+    real(dp) :: defect_solver = 0.0_dp !! the same of the solver's field, before equilibrate_divergence
     logical :: converged = .false.
     real(dp) :: rho = 0.0_dp
     real(dp) :: lambda_max = 0.0_dp
@@ -133,6 +142,7 @@ contains
     type(block_diag_spd_t) :: blocks
     type(uzawa_settings_t) :: uset
     type(uzawa_result_t) :: ures
+    type(status_t) :: st_eq
     integer :: t, k
     real(dp) :: t0
 
@@ -185,6 +195,8 @@ contains
       if (.not. is_ok(st)) return
       res%iterations = ares%outer
       res%factorisations = ares%factorisations
+      res%inner = ares%inner
+      res%inner_iterations = ares%inner_iterations
       res%converged = ares%converged
       res%penalty = ares%r
       res%nnz_factor = ares%nnz_factor
@@ -216,6 +228,15 @@ contains
         '"; expected augmented or uzawa')
       return
     end select
+    ! the solver's defect, then exact equilibration on Gamma_u and interior edges (own status:
+    ! st may hold the solver's warning)
+    call equilibrium_to_local(map, x, field%beta)
+    res%defect_solver = divergence_defect(d, field%beta)
+    call equilibrate_divergence(mesh, map, d, is_gamma_a, x, st_eq)
+    if (st_eq%code /= 0) then
+      st = st_eq
+      return
+    end if
     call equilibrium_to_local(map, x, field%beta)
     res%defect = divergence_defect(d, field%beta)
     res%seconds_solver = lap(t0)
