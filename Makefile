@@ -156,7 +156,7 @@ check-asan: deps
 	  $(MAKE) check-lite TEST_BUILD=asan TEST_FLAGS="$(ASAN_FLAGS)"
 
 # ---------------------------------------------------------------- benchmarks
-# make bench        all tables (about 10 minutes: the largest meshes have 1e6 unknowns), plots
+# make bench        all tables (about 12 minutes, 10 GB: the largest meshes have 1e6 nodes), plots
 # make bench-quick  the small tables only (primal, dual_p1, dual_p2 sections; about 1 minute)
 # make bench-peers  the same QPs solved by PETSc (python3-petsc4py), if installed
 BENCH_PACKAGES := gnuplot-nox
