@@ -17,8 +17,8 @@
 !> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv,
 !> out/bench_dual_p2.csv.
 program dualsig_bench
-  use, intrinsic :: iso_fortran_env, only: int64
   use dualsig_kinds, only: dp
+  use dualsig_clock, only: wall_seconds, peak_memory_mb
   use dualsig_status, only: status_t
   use dualsig_mesh, only: mesh_t, mesh_h
   use dualsig_mesh_generate, only: mesh_rectangle
@@ -150,25 +150,6 @@ contains
     run_section = nsections == 0 .or. any(sections(1:nsections) == name)
   end function run_section
 
-  !> Peak resident memory of this process so far, MB (VmHWM of /proc/self/status; 0 if unknown).
-  real(dp) function peak_mb()
-    character(len=256) :: line
-    integer :: u, ios, kb
-    peak_mb = 0.0_dp
-    open (newunit=u, file='/proc/self/status', status='old', action='read', iostat=ios)
-    if (ios /= 0) return
-    do
-      read (u, '(a)', iostat=ios) line
-      if (ios /= 0) exit
-      if (line(1:6) == 'VmHWM:') then
-        read (line(7:), *, iostat=ios) kb
-        if (ios == 0) peak_mb = kb / 1024.0_dp
-        exit
-      end if
-    end do
-    close (u)
-  end function peak_mb
-
   !> Work-precision and scaling up to ~1e6 primal unknowns for one manufactured scene:
   !> grid sequencing; per level the active-set primal solve (warm start from the
   !> interpolated coarser solution) against ONE analyse + factorise + solve of the same
@@ -226,10 +207,10 @@ contains
       call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
-      t0 = wall()
+      t0 = wall_seconds()
       call geometric_ordering(mesh%xy, sys%a, aset%ordering, aset%perm, st)
       call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st)
-      tp = wall() - t0
+      tp = wall_seconds() - t0
       if (level < first_level_reported) cycle
       ! baseline: the same matrix with only the Dirichlet rows, one analyse+factorise+solve
       ar = sys%a
@@ -240,18 +221,18 @@ contains
         if (sys%kind(i) == BOUND_FIXED) ar%val(ar%diag(i)) = 1.0_dp
       end do
       allocate (x(ar%n))
-      t0 = wall()
+      t0 = wall_seconds()
       call cholesky_factor(ar, chol, st, ORDERING_AMD)
       call cholesky_solve(chol, sys%load, x, st)
-      tb = wall() - t0
+      tb = wall_seconds() - t0
       nnz_amd = chol%nnz_factor
       fl_amd = chol%flops
       call cholesky_free(chol)
-      t0 = wall()
+      t0 = wall_seconds()
       call geometric_ordering(mesh%xy, ar, ord, perm, st)
       call cholesky_factor(ar, chol, st, ord, perm)
       call cholesky_solve(chol, sys%load, x, st)
-      tbn = wall() - t0
+      tbn = wall_seconds() - t0
       nnz_nd = chol%nnz_factor
       fl_nd = chol%flops
       call cholesky_free(chol)
@@ -259,10 +240,10 @@ contains
       fl_metis = 0.0_dp
       tbm = 0.0_dp
       if (level >= first_level_metis) then
-        t0 = wall()
+        t0 = wall_seconds()
         call cholesky_factor(ar, chol, st, ORDERING_METIS)
         call cholesky_solve(chol, sys%load, x, st)
-        tbm = wall() - t0
+        tbm = wall_seconds() - t0
         nnz_metis = chol%nnz_factor
         fl_metis = chol%flops
         call cholesky_free(chol)
@@ -277,10 +258,10 @@ contains
       if (scene%problem == PROBLEM_P1) err = sqrt(e0**2 + e1**2)
       write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,2i11,f8.2,f8.3,f8.2,i11)') level, mesh%nnode, &
         'active_set', ares%iterations, ares%factorisations, ares%lowrank_solves, tp, tbn, tp / tbn, err, &
-        ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
+        ares%kkt_residual, peak_memory_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
       write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,2(",",i0),' // &
         '3(",",es12.4),",",i0,3(",",es12.4))') scene_name, level, mesh%nnode, 'active_set', tp, ares%iterations, &
-        ares%factorisations, ares%lowrank_solves, tbn, tp / tbn, err, ares%kkt_residual, peak_mb(), nnz_amd, nnz_metis, &
+        ares%factorisations, ares%lowrank_solves, tbn, tp / tbn, err, ares%kkt_residual, peak_memory_mb(), nnz_amd, nnz_metis, &
         tbm, tb, tp / tb, nnz_nd, fl_amd, fl_nd, fl_metis
       write (*, '(a,3es11.3,a,f6.3)') '       factor flops (CHOLMOD): amd, baseline ordering, metis =', fl_amd, fl_nd, &
         fl_metis, ';  baseline / amd =', fl_nd / fl_amd
@@ -297,31 +278,31 @@ contains
       if (scene%problem == PROBLEM_P1) then
         allocate (bd(2 * mesh%nnode))
         call assemble_dual_p1(mesh, scene%f, tri_rule(5), ad, bd)
-        t0 = wall()
+        t0 = wall_seconds()
         call cholesky_factor(ad, chol, st, ORDERING_AMD)
-        tdba = wall() - t0
+        tdba = wall_seconds() - t0
         call cholesky_free(chol)
-        t0 = wall()
+        t0 = wall_seconds()
         call dual_p1_ordering(mesh, ad, ORDERING_GEOMETRIC, ord, perm, st)
         call cholesky_factor(ad, chol, st, ord, perm)
-        tdb = wall() - t0
+        tdb = wall_seconds() - t0
         call cholesky_free(chol)
         deallocate (bd)
-        t0 = wall()
+        t0 = wall_seconds()
         call dual_p1_solve(mesh, scene%f, tri_rule(5), d1set, q, d1res, st, u_primal=u)
-        td = wall() - t0
+        td = wall_seconds() - t0
         call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(12), b1, scene%x_breaks(1:scene%nbreaks))
         write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,30x,f8.3,f8.2)') level, 2 * mesh%nnode, 'dual_p1', &
           d1res%iterations, d1res%factorisations, d1res%lowrank_solves, td, tdb, td / tdb, sqrt(b1%est), &
-          d1res%residual, peak_mb(), tdba, td / tdba
+          d1res%residual, peak_memory_mb(), tdba, td / tdba
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
           '",0,0,0",2(",",es12.4),",0,0,0,0")') scene_name, level, 2 * mesh%nnode, 'dual_p1', td, d1res%iterations, &
-          d1res%factorisations, d1res%lowrank_solves, tdb, td / tdb, sqrt(b1%est), d1res%residual, peak_mb(), tdba, td / tdba
+          d1res%factorisations, d1res%lowrank_solves, tdb, td / tdb, sqrt(b1%est), d1res%residual, peak_memory_mb(), tdba, td / tdba
       else
         is_gamma_a = mesh%bedge_marker == 1
-        t0 = wall()
+        t0 = wall_seconds()
         call dual_p2_solve(mesh, scene%f, is_gamma_a, 0.0_dp, d2set, field, d2res, st, scene%x_breaks(1:1), u)
-        td = wall() - t0
+        td = wall_seconds() - t0
         block
           type(equilibrium_map_t) :: map
           real(dp), allocatable :: c(:,:,:), ae(:,:,:), dd(:,:)
@@ -329,18 +310,18 @@ contains
           call equilibrium_map(mesh, map)
           call assemble_equilibrium_global(map, ae, ad)
         end block
-        t0 = wall()
+        t0 = wall_seconds()
         call cholesky_factor(ad, chol, st, ORDERING_AMD)
-        tdba = wall() - t0
+        tdba = wall_seconds() - t0
         call cholesky_free(chol)
-        t0 = wall()
+        t0 = wall_seconds()
         call edge_end_ordering(mesh, ad, ord, perm, st)
         call cholesky_factor(ad, chol, st, ord, perm)
-        tdb = wall() - t0
+        tdb = wall_seconds() - t0
         call cholesky_free(chol)
         write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,30x,f8.3,f8.2)') level, ad%n, 'dual_p2', &
           d2res%iterations, d2res%factorisations, 0, td, tdb, td / tdb, &
-          dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect_solver, peak_mb(), tdba, td / tdba
+          dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect_solver, peak_memory_mb(), tdba, td / tdba
         write (*, '(a,4f8.3,a)') '       profile of the dual solve (s): particular field, elements, loads, solver =', &
           d2res%seconds_particular, d2res%seconds_elements, d2res%seconds_loads, d2res%seconds_solver
         write (*, '(a,a,a,i0,a,2es10.2)') '       inner solver ', trim(d2res%inner), ': ', d2res%inner_iterations, &
@@ -348,7 +329,7 @@ contains
           d2res%defect_solver, d2res%defect
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
           '",0,0,0",2(",",es12.4),",0,0,0,0")') scene_name, level, ad%n, 'dual_p2', td, d2res%iterations, d2res%factorisations, &
-          0, tdb, td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect_solver, peak_mb(), &
+          0, tdb, td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect_solver, peak_memory_mb(), &
           tdba, td / tdba
       end if
       if (level >= first_level_fit) tlog(nfit, 3) = log(td)
@@ -406,9 +387,9 @@ contains
         if (m > 1) dset%inner = inners(m)
         dset%tol = max(1.0e-10_dp, 1.0e-4_dp * (mesh_h(mesh) / sqrt(2.0_dp))**2)
         dset%max_iter = 1000000
-        t0 = wall()
+        t0 = wall_seconds()
         call dual_p2_solve(mesh, scene%f, is_gamma_a, 0.0_dp, dset, field, dres, st, scene%x_breaks(1:1))
-        secs = wall() - t0
+        secs = wall_seconds() - t0
         err = dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(12))
         write (*, '(i5,i9,a12,a11,i8,i8,f10.3,2es15.3,es24.4)') level, mesh%ntri, trim(methods(m)), &
           trim(inners(m)), dres%iterations, dres%factorisations, secs, dres%defect_solver, dres%defect, err
@@ -459,9 +440,9 @@ contains
       allocate (b(2 * mesh%nnode))
       call assemble_dual_p1(mesh, scene%f, tri_rule(5), a, b)
       do k = 1, 3
-        t0 = wall()
+        t0 = wall_seconds()
         call cholesky_factor(a, chol, st)
-        times(k) = wall() - t0
+        times(k) = wall_seconds() - t0
         call cholesky_free(chol)
       end do
       t_fact = median(times)
@@ -469,9 +450,9 @@ contains
         if (methods(m) == 'uzawa' .and. level > max_level_uzawa) cycle
         dset%method = methods(m)
         dset%tol = max(1.0e-10_dp, 1.0e-4_dp * (mesh_h(mesh) / sqrt(2.0_dp))**2)
-        t0 = wall()
+        t0 = wall_seconds()
         call dual_p1_solve(mesh, scene%f, tri_rule(5), dset, q, dres, st)
-        secs = wall() - t0
+        secs = wall_seconds() - t0
         call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(16), bounds)
         call dual_p1_errors(mesh, q, scene%f, scene%u, scene%grad_u, tri_rule(16), eq, ediv, eqq)
         write (*, '(i5,i11,a12,i8,f10.3,f10.3,f14.2,es13.4,es12.4)') level, 2 * mesh%nnode, trim(methods(m)), &
@@ -505,9 +486,9 @@ contains
     set%omega = omega
     set%tol = tol
     set%max_iter = max_sweeps
-    t0 = wall()
+    t0 = wall_seconds()
     call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, set, res, st_solve)
-    secs = wall() - t0
+    secs = wall_seconds() - t0
     call p1_error_norms(mesh, u, scene%u, scene%grad_u, tri_rule(16), e0, e1)
     err = e1
     if (scene%problem == PROBLEM_P1) err = sqrt(e0**2 + e1**2)
@@ -528,12 +509,12 @@ contains
     integer :: k, r, reps
     reps = max(1, 2000000 / max(1, size(sys%a%val)))
     do k = 1, timing_repeats
-      t0 = wall()
+      t0 = wall_seconds()
       do r = 1, reps
         call csr_matvec(sys%a, x, y)
         x(1) = x(1) + 1.0e-300_dp * y(1)
       end do
-      times(k) = (wall() - t0) / reps
+      times(k) = (wall_seconds() - t0) / reps
     end do
     t = median(times)
   end function median_matvec
@@ -546,11 +527,11 @@ contains
     call psor_plan(sys%a, sys%kind, sys%bnd, 1.0_dp, plan)
     reps = max(1, 2000000 / max(1, size(sys%a%val)))
     do k = 1, timing_repeats
-      t0 = wall()
+      t0 = wall_seconds()
       do r = 1, reps
         call psor_sweep(sys%a, sys%load, plan, x)
       end do
-      times(k) = (wall() - t0) / reps
+      times(k) = (wall_seconds() - t0) / reps
     end do
     t = median(times)
   end function median_sweep
@@ -573,9 +554,4 @@ contains
     median = w((size(w) + 1) / 2)
   end function median
 
-  real(dp) function wall()
-    integer(int64) :: c, r
-    call system_clock(c, r)
-    wall = real(c, dp) / real(r, dp)
-  end function wall
 end program dualsig_bench

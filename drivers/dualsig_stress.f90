@@ -28,9 +28,10 @@
 !> Exit status: 0 all cases PASS, 1 some case FAILed (after writing the tables), 2 usage
 !> or output error.
 program dualsig_stress
-  use, intrinsic :: iso_fortran_env, only: int64, output_unit, error_unit
+  use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_kinds, only: dp
+  use dualsig_clock, only: wall_seconds, peak_memory_mb
   use dualsig_status, only: status_t, is_ok, DS_OK, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_mesh, only: mesh_t, mesh_h
   use dualsig_mesh_generate, only: mesh_rectangle
@@ -106,7 +107,7 @@ program dualsig_stress
   real(dp) :: t_start
 
   call parse_args()
-  t_start = wall()
+  t_start = wall_seconds()
   if (quick) write (*, '(a)') 'dualsig_stress: --quick (smaller meshes)'
   write (*, '(a)') 'dualsig_stress: running the stress cases'
   call cases_mesh_quality()
@@ -190,7 +191,7 @@ contains
     end if
     if (.not. allocated(u)) allocate (u(mesh%nnode), source=0.0_dp)
     o%ndof = count(sys%kind /= BOUND_FIXED)
-    t0 = wall()
+    t0 = wall_seconds()
     if (present(method)) then
       if (method == 'psor') then
         pset%omega = 1.0_dp
@@ -212,7 +213,7 @@ contains
       o%kkt = ares%kkt_residual
       o%conv = ares%converged .and. st%code == DS_OK
     end if
-    o%seconds = wall() - t0
+    o%seconds = wall_seconds() - t0
     o%code = st%code
     if (allocated(st%msg)) o%msg = st%msg
     o%finite = all_finite(u) .and. ieee_is_finite(o%kkt)
@@ -247,7 +248,7 @@ contains
     real(dp) :: t0
     integer :: j
     o%dual_ran = .true.
-    t0 = wall()
+    t0 = wall_seconds()
     if (scene%problem == PROBLEM_P1) then
       call dual_p1_solve(mesh, scene%f, tri_rule(load_degree), d1set, q, d1res, st, u_primal=u)
       o%dual_code = st%code
@@ -287,7 +288,7 @@ contains
       o%finite = o%finite .and. all_finite(b2%est_elem)
     end if
     o%finite = o%finite .and. ieee_is_finite(o%est) .and. ieee_is_finite(o%lo) .and. ieee_is_finite(o%hi)
-    o%seconds = o%seconds + (wall() - t0)
+    o%seconds = o%seconds + (wall_seconds() - t0)
   end subroutine dual_level
 
   !> The guaranteed-bound expectations of a level: converged primal and dual, finite, est >= 0,
@@ -711,9 +712,9 @@ contains
     ! a user rho 100 times the automatic one: the divergence must be an error, quickly
     z = 0.0_dp
     uset%rho = 100.0_dp * auto%rho
-    t0 = wall()
+    t0 = wall_seconds()
     call uzawa_solve(chol, b, bmat, row_kind, zero, y, z, uset, ures, st)
-    o%seconds = wall() - t0
+    o%seconds = wall_seconds() - t0
     o%iters = ures%iterations
     o%kkt = -1.0_dp
     o%err = -1.0_dp
@@ -724,9 +725,9 @@ contains
     z = 0.0_dp
     uset%rho = 0.0_dp
     uset%max_iter = 5
-    t0 = wall()
+    t0 = wall_seconds()
     call uzawa_solve(chol, b, bmat, row_kind, zero, y, z, uset, ures, st)
-    o%seconds = wall() - t0
+    o%seconds = wall_seconds() - t0
     o%iters = ures%iterations
     o%conv = ures%converged
     o%dual_res = ures%residual
@@ -767,9 +768,9 @@ contains
     z = 0.0_dp
     uset%tol = 1.0e-12_dp
     uset%max_iter = 100000
-    t0 = wall()
+    t0 = wall_seconds()
     call uzawa_solve(ident, b, bmat, [ROW_INEQUALITY, ROW_INEQUALITY], [0.0_dp, 0.0_dp], y, z, uset, ures, st)
-    o%seconds = wall() - t0
+    o%seconds = wall_seconds() - t0
     o%iters = ures%iterations
     o%conv = ures%converged
     o%dual_res = ures%residual
@@ -884,7 +885,7 @@ contains
       secs = secs + o%seconds
     end do
     write (*, *) o%conv, o%dual_conv, o%dual_ran, o%finite, o%iters, o%kkt, o%dual_res, o%err, o%est, secs, &
-      peak_mb(), merge(mesh%nnode, 3 * mesh%nnode, kind_name == 'p2_primal')
+      peak_memory_mb(), merge(mesh%nnode, 3 * mesh%nnode, kind_name == 'p2_primal')
     stop
   end subroutine size_child
 
@@ -904,7 +905,7 @@ contains
     write (cmdline, '(a,i0,a)') 'bin/dualsig_stress --max-level ', max_level, merge(' --quick', '        ', quick)
     open (newunit=u, file=temp_name(txt), status='replace', action='write')
     write (u, '(a)') '# dualsig stress suite: ' // trim(cmdline)
-    write (u, '(a,i0,a,i0,a,f7.1,a)') '# ', nrows, ' cases, ', nfail, ' FAIL, ', wall() - t_start, ' s'
+    write (u, '(a,i0,a,i0,a,f7.1,a)') '# ', nrows, ' cases, ', nfail, ' FAIL, ', wall_seconds() - t_start, ' s'
     write (u, '(a)') '# kkt: relative KKT residual of the primal solve; dual_res: P1 dual KKT residual, P2 divergence' // &
       ' defect of the solver (before equilibration), Uzawa residual; eff = sqrt(est)/err_u_H1; -1: not applicable'
     write (u, '(a28,1x,a34,1x,a4,a9,a10,a10,a11,a11,a11,a9,1x,a7,2x,a)') 'case', 'varied', 'conv', 'iters', 'kkt', &
@@ -936,7 +937,7 @@ contains
     close (u)
     call file_commit(md, st)
     if (st%code /= 0) call fail_output(st)
-    write (*, '(a,i0,a,i0,a,f7.1,a)') 'dualsig_stress: ', nrows, ' cases, ', nfail, ' FAIL, ', wall() - t_start, &
+    write (*, '(a,i0,a,i0,a,f7.1,a)') 'dualsig_stress: ', nrows, ' cases, ', nfail, ' FAIL, ', wall_seconds() - t_start, &
       ' s; tables written to ' // txt // ' and ' // md
     if (nfail > 0) stop 1
   end subroutine write_tables
@@ -997,28 +998,4 @@ contains
     all_finite = all(ieee_is_finite(v))
   end function all_finite
 
-  !> Peak resident memory of this process so far, MB (VmHWM of /proc/self/status; 0 if unknown).
-  real(dp) function peak_mb()
-    character(len=256) :: line
-    integer :: u, ios, kb
-    peak_mb = 0.0_dp
-    open (newunit=u, file='/proc/self/status', status='old', action='read', iostat=ios)
-    if (ios /= 0) return
-    do
-      read (u, '(a)', iostat=ios) line
-      if (ios /= 0) exit
-      if (line(1:6) == 'VmHWM:') then
-        read (line(7:), *, iostat=ios) kb
-        if (ios == 0) peak_mb = kb / 1024.0_dp
-        exit
-      end if
-    end do
-    close (u)
-  end function peak_mb
-
-  real(dp) function wall()
-    integer(int64) :: c, r
-    call system_clock(c, r)
-    wall = real(c, dp) / real(r, dp)
-  end function wall
 end program dualsig_stress

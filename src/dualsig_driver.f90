@@ -6,8 +6,9 @@
 !> temporary names and renamed when the run is complete, so a failed run leaves no
 !> partial file and keeps earlier results.
 module dualsig_driver
-  use, intrinsic :: iso_fortran_env, only: int64, output_unit
+  use, intrinsic :: iso_fortran_env, only: output_unit
   use dualsig_kinds, only: dp
+  use dualsig_clock, only: wall_seconds
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
                             DS_WARN_NOT_CONVERGED, DS_ERR_IO
   use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter
@@ -689,12 +690,5 @@ contains
     end if
     close (u, status='delete', iostat=ios)
   end subroutine check_output_writable
-
-  !> Wall-clock seconds from an arbitrary origin.
-  real(dp) function wall_seconds()
-    integer(int64) :: count, rate
-    call system_clock(count, rate)
-    wall_seconds = real(count, dp) / real(rate, dp)
-  end function wall_seconds
 
 end module dualsig_driver

@@ -23,6 +23,7 @@
 !>   equilibrated as above.
 module dualsig_problem_dual_p2
   use dualsig_kinds, only: dp, i8
+  use dualsig_clock, only: wall_seconds
   use dualsig_fields, only: scalar_field
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_matvec
@@ -272,13 +273,6 @@ contains
     lap = now - t0
     t0 = now
   end function lap
-
-  !> Wall-clock seconds from an arbitrary origin.
-  real(dp) function wall_seconds()
-    integer(i8) :: cnt, rate
-    call system_clock(cnt, rate)
-    wall_seconds = real(cnt, dp) / real(rate, dp)
-  end function wall_seconds
 
   !> Start values of the Gamma_a unknowns from the primal solution: at its bound (predicted
   !> active: lambda . nu = 0) where u > 0, above it where u = 0 (contact: positive flux).

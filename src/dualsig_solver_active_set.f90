@@ -32,6 +32,7 @@
 !> returned x is always projected on the bounds, hence feasible.
 module dualsig_solver_active_set
   use dualsig_kinds, only: dp, i8
+  use dualsig_clock, only: wall_seconds
   use dualsig_sparse, only: csr_t, csr_matvec
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
                                    cholesky_free, ORDERING_AMD
@@ -349,13 +350,6 @@ contains
         trim(merge('converged    ', 'not converged', pr%converged)))
     end subroutine fall_back
   end subroutine active_set_solve
-
-  !> Wall-clock seconds from an arbitrary origin.
-  real(dp) function wall_seconds()
-    integer(i8) :: c, r
-    call system_clock(c, r)
-    wall_seconds = real(c, dp) / real(r, dp)
-  end function wall_seconds
 
   !> ar = M(held): the values of a with identity rows and columns for the held unknowns.
   pure subroutine reduced_values(a, held, ar)
