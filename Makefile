@@ -40,9 +40,14 @@ DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libopenblas-dev libsu
                    python3-meshio
 
 BLD  := build/$(BUILD)
-SRCS := $(sort $(wildcard src/*.f90))
-CSRCS := $(sort $(wildcard src/*.c))
-OBJS := $(patsubst src/%.f90,$(BLD)/%.o,$(SRCS)) $(patsubst src/%.c,$(BLD)/%.o,$(CSRCS))
+# The source tree by layer, lowest first: a module may use modules of its own layer and of
+# the layers before it, never of a later one (make check-layers; src/README.md).
+LAYERS := base mesh linalg qp fem problems estimates io api
+SRCS := $(foreach l,$(LAYERS),$(sort $(wildcard src/$(l)/*.f90)))
+CSRCS := $(foreach l,$(LAYERS),$(sort $(wildcard src/$(l)/*.c)))
+OBJS := $(patsubst %.f90,$(BLD)/%.o,$(notdir $(SRCS))) $(patsubst %.c,$(BLD)/%.o,$(notdir $(CSRCS)))
+vpath %.f90 $(addprefix src/,$(LAYERS))
+vpath %.c $(addprefix src/,$(LAYERS))
 
 ifeq ($(BUILD),release)
   LIBDIR := lib
@@ -56,26 +61,27 @@ endif
 LIBRARY := $(LIBDIR)/libdualsig.a
 DRIVER  := $(BINDIR)/dualsig
 
-.PHONY: all lib run check check-lite check-asan deps bench bench-quick bench-plots bench-peers bench-deps plots stress clean distclean
+.PHONY: all lib run check check-lite check-asan check-layers deps bench bench-quick bench-plots bench-peers bench-deps plots stress clean distclean
 all: $(LIBRARY) $(DRIVER)
 lib: $(LIBRARY)
 
 $(sort $(BLD) $(MODDIR) $(BINDIR)):
 	@mkdir -p $@
 
-# Module dependencies, derived from the "use" statements of src/*.f90.
+# Module dependencies, derived from the "use" statements of src/*/*.f90 (one module per
+# file, named like it).
 $(BLD)/deps.mk: $(SRCS) Makefile | $(BLD)
 	@for f in $(SRCS); do m=$$(basename $$f .f90); \
 	  for u in $$(sed -n 's/^ *use *\(, *intrinsic *::\)\? *\([A-Za-z0-9_]*\).*/\2/p' $$f | sort -u); do \
-	    if [ -f src/$$u.f90 ] && [ $$u != $$m ]; then echo "$(BLD)/$$m.o: $(BLD)/$$u.o"; fi; \
+	    if [ -n "$$(ls src/*/$$u.f90 2>/dev/null)" ] && [ $$u != $$m ]; then echo "$(BLD)/$$m.o: $(BLD)/$$u.o"; fi; \
 	  done; done > $@
 -include $(BLD)/deps.mk
 
-$(BLD)/%.o: src/%.f90 | $(BLD) $(MODDIR)
+$(BLD)/%.o: %.f90 | $(BLD) $(MODDIR)
 	$(FC) $(STD_FLAGS) $(FFLAGS) -J$(MODDIR) -I$(MODDIR) -c $< -o $@
 
 # C shims (CHOLMOD); Fortran reaches them through bind(c) interfaces, a link-time dependency only.
-$(BLD)/%.o: src/%.c | $(BLD)
+$(BLD)/%.o: %.c | $(BLD)
 	$(CC) -O2 -g -Wall -Wextra -I/usr/include/suitesparse -c $< -o $@
 
 # (no order-only $(LIBDIR) prerequisite: in the release build it is 'lib', the phony target)
@@ -132,6 +138,13 @@ check: deps
 	@$(MAKE) BUILD=debug all
 	@$(MAKE) check-lite
 endif
+
+# The layering of src/ (no module uses one of a later layer, every module file lies in a
+# layer folder and is named like its module) and the size rule (no procedure of src/ over
+# MAX_PROCEDURE_LINES lines).  Run by CI through make check.
+MAX_PROCEDURE_LINES := 200
+check-layers:
+	@python3 tools/check_layers.py --max-lines $(MAX_PROCEDURE_LINES) src $(LAYERS)
 
 # The fallback runner: test/pfunit_lite.py translates the .pf subset into Fortran.
 # TEST_BUILD names the library build the suite links (debug, or asan for check-asan).

@@ -25,10 +25,11 @@ program dualsig_bench
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_quadrature, only: tri_rule
   use dualsig_sparse, only: csr_matvec
-  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, psor_plan_t, psor_plan, &
-                                 psor_sweep, BOUND_FIXED
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, psor_plan_t, psor_plan, psor_sweep
+  use dualsig_qp_types, only: BOUND_FIXED
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
-  use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints, PROBLEM_P1
+  use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints
+  use dualsig_problem_kinds, only: PROBLEM_P1
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_estimate_errors, only: p1_error_norms
   use dualsig_sparse, only: csr_t

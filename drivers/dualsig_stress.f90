@@ -39,12 +39,15 @@ program dualsig_stress
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_mesh_quality, only: mesh_quality_t, mesh_quality
   use dualsig_quadrature, only: tri_rule
-  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, BOUND_FIXED, BOUND_LOWER
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
+  use dualsig_qp_types, only: BOUND_FIXED, BOUND_LOWER
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
-  use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve, ROW_INEQUALITY
+  use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
+  use dualsig_qp_types, only: ROW_INEQUALITY
   use dualsig_spd_solver, only: cholmod_spd_t, block_diag_spd_t
   use dualsig_sparse, only: csr_t, rect_t, rect_from_triplets
-  use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints, PROBLEM_P1
+  use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints
+  use dualsig_problem_kinds, only: PROBLEM_P1
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_stress_problems, only: stress_problem, stress_scaled_scene
   use dualsig_estimate_errors, only: p1_error_norms, exact_energy

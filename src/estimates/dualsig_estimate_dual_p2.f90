@@ -18,7 +18,7 @@ module dualsig_estimate_dual_p2
   use dualsig_quadrature, only: tri_rule_t, tri_points_t, tri_points
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_elements_equilibrium, only: equilibrium_field
-  use dualsig_problem_dual_p2, only: dual_p2_field_t, dual_p2_lambda
+  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda
   implicit none
   private
 

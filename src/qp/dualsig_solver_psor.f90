@@ -14,18 +14,16 @@
 module dualsig_solver_psor
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: csr_t, csr_matvec
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   implicit none
   private
 
+  ! BOUND_* and kkt_residual live in dualsig_qp_types; re-exported for existing callers
   public :: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
   public :: psor_settings_t, psor_result_t
   public :: psor_solve, kkt_residual, psor_plan_t, psor_plan, psor_sweep
-
-  integer, parameter :: BOUND_FREE = 0    !! unconstrained unknown
-  integer, parameter :: BOUND_LOWER = 1   !! x_i >= bnd(i)
-  integer, parameter :: BOUND_FIXED = 2   !! x_i  = bnd(i)
 
   type :: psor_settings_t
     real(dp) :: omega = 1.0_dp        !! relaxation parameter in (0, 2)
@@ -141,43 +139,4 @@ contains
       call set_warning(st, DS_WARN_NOT_CONVERGED, trim(buf))
     end if
   end subroutine psor_solve
-
-  !> Relative KKT residual || r ||_2 / || F ||_2 over the unknowns that are not fixed,
-  !> where g = A x - F and
-  !>     r_i = g_i                           for free unknowns,
-  !>     r_i = min(g_i, A_ii (x_i - bnd_i))  for lower-bounded unknowns
-  !> (the natural residual of the diagonally scaled problem: zero exactly at the KKT
-  !> point, in the units of F, hence invariant under scaling of F, A and x).
-  !> When F vanishes on the unknowns that are not fixed the absolute norm is returned.
-  !> `work` (size n) is scratch space.
-  real(dp) function kkt_residual(a, f, kind, bnd, x, work) result(rel)
-    type(csr_t), intent(in) :: a
-    real(dp), intent(in) :: f(:)
-    integer, intent(in) :: kind(:)
-    real(dp), intent(in) :: bnd(:)
-    real(dp), intent(in) :: x(:)
-    real(dp), intent(inout) :: work(:)
-    real(dp) :: num, den, r
-    integer :: i
-    call csr_matvec(a, x, work)
-    num = 0.0_dp
-    den = 0.0_dp
-    do i = 1, a%n
-      select case (kind(i))
-      case (BOUND_FREE)
-        r = work(i) - f(i)
-      case (BOUND_LOWER)
-        r = min(work(i) - f(i), a%val(a%diag(i)) * (x(i) - bnd(i)))
-      case default
-        cycle
-      end select
-      num = num + r * r
-      den = den + f(i) * f(i)
-    end do
-    if (den > 0.0_dp) then
-      rel = sqrt(num / den)
-    else
-      rel = sqrt(num)
-    end if
-  end function kkt_residual
 end module dualsig_solver_psor

@@ -26,7 +26,8 @@ module dualsig_stress_problems
   use dualsig_kinds, only: dp, pi
   use dualsig_fields, only: scalar_field, vector_field
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
-  use dualsig_scenes, only: scene_t, PROBLEM_P1, PROBLEM_P2
+  use dualsig_scenes, only: scene_t
+  use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   implicit none
   private
 

@@ -20,17 +20,17 @@ module dualsig_solver_uzawa
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: rect_t, rect_matvec, rect_matvec_t
   use dualsig_spd_solver, only: spd_solver_t
+  use dualsig_qp_types, only: ROW_EQUALITY, ROW_INEQUALITY
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   use dualsig_strings, only: itoa, rtoa
   implicit none
   private
 
+  ! ROW_* live in dualsig_qp_types; re-exported for existing callers
   public :: ROW_EQUALITY, ROW_INEQUALITY, uzawa_settings_t, uzawa_result_t, uzawa_solve, &
             uzawa_lambda_max
 
-  integer, parameter :: ROW_EQUALITY = 0     !! (B y)_k = e_k, free multiplier
-  integer, parameter :: ROW_INEQUALITY = 1   !! (B y)_k >= e_k, multiplier >= 0
 
   real(dp), parameter :: rho_auto_factor = 1.5_dp    !! rho = factor / lambda_max (< 2 for convergence)
   real(dp), parameter :: divergence_factor = 1.0e4_dp

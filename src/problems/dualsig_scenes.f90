@@ -27,7 +27,7 @@ module dualsig_scenes
   use dualsig_kinds, only: dp, pi
   use dualsig_fields, only: scalar_field, vector_field
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
-  use dualsig_problem_primal, only: PROBLEM_P1, PROBLEM_P2
+  use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   implicit none
   private
 

@@ -26,7 +26,7 @@ module dualsig_solver_augmented
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve, &
                                        active_set_workspace_t, active_set_workspace_free
   use dualsig_sparse_direct, only: ORDERING_AMD
-  use dualsig_solver_psor, only: BOUND_LOWER
+  use dualsig_qp_types, only: BOUND_LOWER
   use dualsig_solver_boundary_schur, only: boundary_schur_t, boundary_schur_settings_t, boundary_schur_result_t, &
                                            boundary_schur_factor, boundary_schur_solve, boundary_schur_free
   use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT

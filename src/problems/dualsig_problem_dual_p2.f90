@@ -31,21 +31,23 @@ module dualsig_problem_dual_p2
   use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GEOMETRIC
   use dualsig_ordering_geometric, only: geometric_ordering
   use dualsig_spd_solver, only: block_diag_spd_t
-  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER
   use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
   use dualsig_solver_augmented, only: augmented_settings_t, augmented_result_t, augmented_solve
-  use dualsig_elements_equilibrium, only: equilibrium_element_load, equilibrium_field
+  use dualsig_elements_equilibrium, only: equilibrium_element_load
   use dualsig_assembly_equilibrium, only: equilibrium_map_t, equilibrium_map, equilibrium_elements, &
                                           assemble_equilibrium_global, equilibrium_to_global, &
                                           equilibrium_to_local, equilibrium_div_rows_global, &
                                           equilibrium_rows_local, equilibrium_gamma_a_dofs
   use dualsig_particular_field, only: particular_field_t, particular_field_build, lambda_f_at
   use dualsig_equilibrium_correction, only: equilibrate_divergence
+  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_strings, only: itoa
   implicit none
   private
 
+  ! dual_p2_field_t and dual_p2_lambda live in dualsig_dual_p2_field (fem); re-exported
   public :: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve, dual_p2_lambda, edge_end_ordering, &
             dual_p2_check_assumptions
 
@@ -87,12 +89,6 @@ module dualsig_problem_dual_p2
     real(dp) :: seconds_loads = 0.0_dp       !! element loads b_e (lambda^f at the quadrature points)
     real(dp) :: seconds_solver = 0.0_dp      !! global assembly and the solver (factorisations included)
   end type dual_p2_result_t
-
-  type :: dual_p2_field_t
-    type(particular_field_t) :: pf          !! lambda^f
-    real(dp), allocatable :: c(:,:,:)       !! (6, 6, ntri) C_e
-    real(dp), allocatable :: beta(:,:)      !! (6, ntri) flux parameters of q^h
-  end type dual_p2_field_t
 
 contains
 
@@ -297,19 +293,6 @@ contains
       end do
     end do
   end subroutine start_from_primal
-
-  !> lambda^h = lambda^f + q^h at the point with barycentric coordinates bary of triangle t.
-  function dual_p2_lambda(field, mesh, f, t, bary) result(v)
-    type(dual_p2_field_t), intent(in) :: field
-    type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
-    integer, intent(in) :: t
-    real(dp), intent(in) :: bary(3)
-    real(dp) :: v(2)
-    real(dp) :: p(2)
-    p = matmul(mesh%xy(:, mesh%tri(:, t)), bary)
-    v = lambda_f_at(field%pf, mesh, f, t, p(1), p(2)) + equilibrium_field(field%c(:, :, t), field%beta(:, t), bary)
-  end function dual_p2_lambda
 
   !> x(dof) = mean over the (one or two) parameters sharing it of sgn * beta.
   subroutine average_to_global(map, beta, x)

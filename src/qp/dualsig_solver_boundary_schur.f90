@@ -25,7 +25,7 @@ module dualsig_solver_boundary_schur
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free, cholesky_order, &
                                    cholesky_permutation, cholesky_trailing_block, cholesky_solve_triangular, &
                                    ORDERING_AMD, ORDERING_GIVEN, ORDERING_GIVEN_EXACT
-  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER, kkt_residual
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, kkt_residual
   use dualsig_solver_dense_qp, only: dense_qp_settings_t, dense_qp_result_t, dense_bound_qp
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa

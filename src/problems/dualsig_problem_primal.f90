@@ -11,16 +11,16 @@ module dualsig_problem_primal
   use dualsig_sparse, only: csr_t
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_assembly_p1, only: assemble_p1_operator, assemble_load
-  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
   use dualsig_strings, only: itoa
+  use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   implicit none
   private
 
+  ! PROBLEM_* live in dualsig_problem_kinds; re-exported for existing callers
   public :: primal_system_t, primal_constraints, primal_assemble, PROBLEM_P1, PROBLEM_P2
 
-  integer, parameter :: PROBLEM_P1 = 1   !! -Lap u + u = f, Signorini on all of Gamma
-  integer, parameter :: PROBLEM_P2 = 2   !! -Lap u = f, u = 0 on Gamma_u, Signorini on Gamma_a
 
   type :: primal_system_t
     integer :: problem = PROBLEM_P2

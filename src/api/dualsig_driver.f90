@@ -19,10 +19,11 @@ module dualsig_driver
   use dualsig_mesh_triangle, only: mesh_read_triangle, triangle_base_name
   use dualsig_mesh_quality, only: mesh_quality_t, mesh_quality, mesh_quality_report
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, BOUND_FIXED
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
+  use dualsig_qp_types, only: BOUND_FIXED
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
-  use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble, &
-                                    PROBLEM_P1
+  use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
+  use dualsig_problem_kinds, only: PROBLEM_P1
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_estimate_errors, only: p1_error_norms, exact_energy
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve

@@ -16,12 +16,12 @@ module dualsig_ordering_geometric
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: csr_t
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
-  use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GIVEN
+  use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GIVEN, ORDERING_GEOMETRIC
   use dualsig_strings, only: itoa
   implicit none
   private
 
-  public :: geometric_nested_dissection, geometric_ordering, nd_min_unknowns
+  public :: geometric_nested_dissection, geometric_ordering, nd_min_unknowns, select_ordering
 
   !> Sets of at most this many unknowns are not split further.
   integer, parameter :: leaf_size = 64
@@ -281,6 +281,21 @@ contains
     call geometric_nested_dissection(xy, a, perm, st)
     ord = ORDERING_GIVEN
   end subroutine geometric_ordering
+
+  !> The ordering CHOLMOD is given for the requested one, the single place where it is
+  !> chosen: ORDERING_GEOMETRIC becomes geometric_ordering's choice (nested dissection of the
+  !> points xy(2, n) of the unknowns, or AMD for small matrices); every other ordering is
+  !> passed on unchanged (perm is then not allocated).
+  subroutine select_ordering(requested, xy, a, ord, perm, st)
+    integer, intent(in) :: requested
+    real(dp), intent(in) :: xy(:,:)
+    type(csr_t), intent(in) :: a
+    integer, intent(out) :: ord
+    integer, allocatable, intent(out) :: perm(:)
+    type(status_t), intent(out) :: st
+    ord = requested
+    if (requested == ORDERING_GEOMETRIC) call geometric_ordering(xy, a, ord, perm, st)
+  end subroutine select_ordering
 
   pure real(dp) function median_of_three(a, b, c) result(m)
     real(dp), intent(in) :: a, b, c

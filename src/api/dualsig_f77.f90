@@ -31,7 +31,8 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: csr_t, csr_is_symmetric
-  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve, BOUND_FREE, BOUND_FIXED
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_FIXED
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_status, only: status_t, is_ok
   implicit none
@@ -244,8 +245,8 @@ subroutine dssign(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, io
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
   use dualsig_ordering_geometric, only: geometric_ordering
-  use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble, PROBLEM_P1, &
-                                    PROBLEM_P2
+  use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
+  use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve, &

@@ -27,7 +27,7 @@ module dualsig_io_vtk
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, DS_ERR_IO, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t
-  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
   use dualsig_io_files, only: temp_name, file_delete, file_commit
   use dualsig_strings, only: itoa
   implicit none

@@ -29,10 +29,11 @@ module dualsig_problem_dual_p1
   use dualsig_sparse, only: csr_t, rect_t, rect_from_triplets
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GEOMETRIC
-  use dualsig_ordering_geometric, only: geometric_ordering
+  use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spd_solver, only: cholmod_spd_t
-  use dualsig_solver_psor, only: BOUND_FREE, BOUND_LOWER
-  use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve, ROW_INEQUALITY
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER
+  use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
+  use dualsig_qp_types, only: ROW_INEQUALITY
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_assembly_dual_p1, only: dual_p1_dof, assemble_dual_p1
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH, DS_ERR_INPUT
@@ -278,13 +279,11 @@ contains
     type(status_t), intent(out) :: st
     real(dp), allocatable :: xy(:,:)
     integer :: i
-    ord = ordering
-    if (ordering /= ORDERING_GEOMETRIC) return
     allocate (xy(2, 2 * mesh%nnode))
     do i = 1, mesh%nnode
       xy(:, 2 * i - 1) = mesh%xy(:, i)
       xy(:, 2 * i) = mesh%xy(:, i)
     end do
-    call geometric_ordering(xy, a, ord, perm, st)
+    call select_ordering(ordering, xy, a, ord, perm, st)
   end subroutine dual_p1_ordering
 end module dualsig_problem_dual_p1

@@ -19,7 +19,7 @@ module dualsig_assembly_equilibrium
   use dualsig_sparse, only: csr_t, rect_t, csr_pattern_from_cliques, csr_add_block, rect_from_triplets
   use dualsig_elements_equilibrium, only: param_side, param_vertex, equilibrium_c_matrix, &
                                           equilibrium_element_matrix, equilibrium_div_row
-  use dualsig_solver_uzawa, only: ROW_EQUALITY, ROW_INEQUALITY
+  use dualsig_qp_types, only: ROW_EQUALITY, ROW_INEQUALITY
   use dualsig_status, only: status_t
   implicit none
   private

@@ -36,8 +36,8 @@ module dualsig_solver_active_set
   use dualsig_sparse, only: csr_t, csr_matvec
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
                                    cholesky_free, ORDERING_AMD
-  use dualsig_solver_psor, only: BOUND_LOWER, BOUND_FIXED, kkt_residual, psor_settings_t, &
-                                 psor_result_t, psor_solve
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
+  use dualsig_qp_types, only: BOUND_LOWER, BOUND_FIXED, kkt_residual
   use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_LAPACK
   use dualsig_strings, only: itoa
   implicit none
