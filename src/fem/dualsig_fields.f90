@@ -1,12 +1,20 @@
-!> Interfaces of user-supplied functions of position: source terms, exact solutions
-!> (not required to be pure: F77 callers pass ordinary EXTERNAL functions)
-!> and their gradients.  Scenes and the F77 interface supply procedures of these shapes.
+!> Functions of position: source terms, exact solutions and their gradients.
+!>
+!> A field is an object with a type-bound `value`, so that it can carry its own data (an
+!> amplitude, a scale, a compiled expression, a table of values): no module needs `save`
+!> state to pass parameters to a source term.  Every library routine takes
+!> `class(field_t)` / `class(vector_field_t)`.
+!>
+!> Plain functions of (x, y) (F77 callers' EXTERNAL functions, the scene catalogue) are
+!> wrapped by `function_field(fn)` / `function_vector_field(fn)`; they need not be pure.
 module dualsig_fields
   use dualsig_kinds, only: dp
   implicit none
   private
 
   public :: scalar_field, vector_field
+  public :: field_t, vector_field_t, function_field_t, function_vector_field_t
+  public :: function_field, function_vector_field
 
   abstract interface
     !> A scalar function of the point (x, y).
@@ -22,4 +30,74 @@ module dualsig_fields
       real(dp) :: v(2)
     end function vector_field
   end interface
+
+  !> A scalar field of position: f%value(x, y).
+  type, abstract :: field_t
+  contains
+    procedure(field_value), deferred :: value
+  end type field_t
+
+  !> A vector field of position: g%value(x, y) of size 2.
+  type, abstract :: vector_field_t
+  contains
+    procedure(vector_field_value), deferred :: value
+  end type vector_field_t
+
+  abstract interface
+    real(dp) function field_value(self, x, y)
+      import :: dp, field_t
+      class(field_t), intent(in) :: self
+      real(dp), intent(in) :: x, y
+    end function field_value
+
+    function vector_field_value(self, x, y) result(v)
+      import :: dp, vector_field_t
+      class(vector_field_t), intent(in) :: self
+      real(dp), intent(in) :: x, y
+      real(dp) :: v(2)
+    end function vector_field_value
+  end interface
+
+  !> A scalar field given by a plain function of (x, y).
+  type, extends(field_t) :: function_field_t
+    procedure(scalar_field), pointer, nopass :: fn => null()
+  contains
+    procedure :: value => function_field_value
+  end type function_field_t
+
+  !> A vector field given by a plain function of (x, y).
+  type, extends(vector_field_t) :: function_vector_field_t
+    procedure(vector_field), pointer, nopass :: fn => null()
+  contains
+    procedure :: value => function_vector_field_value
+  end type function_vector_field_t
+
+contains
+
+  !> The field of the plain function fn.
+  function function_field(fn) result(field)
+    procedure(scalar_field) :: fn
+    type(function_field_t) :: field
+    field%fn => fn
+  end function function_field
+
+  !> The vector field of the plain function fn.
+  function function_vector_field(fn) result(field)
+    procedure(vector_field) :: fn
+    type(function_vector_field_t) :: field
+    field%fn => fn
+  end function function_vector_field
+
+  real(dp) function function_field_value(self, x, y) result(v)
+    class(function_field_t), intent(in) :: self
+    real(dp), intent(in) :: x, y
+    v = self%fn(x, y)
+  end function function_field_value
+
+  function function_vector_field_value(self, x, y) result(v)
+    class(function_vector_field_t), intent(in) :: self
+    real(dp), intent(in) :: x, y
+    real(dp) :: v(2)
+    v = self%fn(x, y)
+  end function function_vector_field_value
 end module dualsig_fields
