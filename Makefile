@@ -4,8 +4,8 @@
 #   make run        install missing Debian packages, build, run data/default.nml
 #   make check      install missing Debian packages, build the debug library, run the test suite
 #   make check-asan the same suite under Address/UndefinedBehavior/LeakSanitizer
-#   make bench      benchmarks (see README, "Benchmarks")
-#   make stress     the numerical stability stress suite (see README, "Stress suite")
+#   make bench      benchmarks (see doc/performance.md)
+#   make stress     the numerical stability stress suite (see doc/stress.md)
 #   make BUILD=debug        the checked build (-fcheck=all, FPE traps) into build/debug
 #   make FFLAGS='...'       override the compiler flags
 #   make check PFUNIT_DIR=/path/to/pfunit/installed/PFUNIT-4.x   run the suite with real pFUnit
@@ -222,7 +222,7 @@ bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) | bin
 	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
 
 # ---------------------------------------------------------------- stress suite
-# make stress   the numerical stability stress cases (see README, "Stress suite"), 2-5 minutes;
+# make stress   the numerical stability stress cases (see doc/stress.md), 2-5 minutes;
 #               tables out/stress.txt and out/stress.md; exit status 1 if a case FAILs.
 #               STRESS_OPTIONS='--max-level 9' bounds the largest mesh (default level 10, ~1e6 unknowns)
 STRESS_OPTIONS ?=

@@ -13,7 +13,7 @@ program dualsig
   integer :: n, exit_code
 
   if (command_argument_count() /= 1) then
-    write (error_unit, '(a)') 'usage: dualsig FILE.nml   (see README.md for the namelist groups)'
+    write (error_unit, '(a)') 'usage: dualsig FILE.nml   (see doc/user-guide.md for the namelist groups)'
     stop 1, quiet=.true.
   end if
   call get_command_argument(1, length=n)

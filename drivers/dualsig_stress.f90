@@ -61,7 +61,7 @@ program dualsig_stress
   use dualsig_strings, only: itoa
   implicit none
 
-  ! ---- expectations (named, see the README "Stress suite")
+  ! ---- expectations (named, see doc/stress.md)
   real(dp), parameter :: scale_tol = 1.0e-8_dp       !! scaling: |ratio - 1| of relative errors and effectivities
   real(dp), parameter :: bound_slack = 1.0e-10_dp    !! est >= err^2 (1 - slack): err^2 and est are two quadratures
   real(dp), parameter :: energy_slack = 1.0e-10_dp   !! lo <= (f,u) <= hi up to slack * |(f,u)| (quadrature)
