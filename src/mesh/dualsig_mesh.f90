@@ -46,6 +46,18 @@ module dualsig_mesh
     logical, allocatable :: node_is_corner(:)   !! (nnode) polygon corner of the boundary
   end type mesh_t
 
+  !> Edge lookup built by build_edges: the edges of node lo (their smaller node) are
+  !> bucket_edge(head(lo) : head(lo) + cnt(lo) - 1), with other end nodes bucket_other.
+  type :: edge_table_t
+    integer, allocatable :: head(:), cnt(:), bucket_other(:), bucket_edge(:)
+    integer, allocatable :: edge_local(:,:)     !! (2, 3*ntri) local edge number in edge_tri(:, e)
+  end type edge_table_t
+
+  !> The triangle, listed boundary edge or node an error of mesh_build_topology is about (0: none).
+  type :: culprit_t
+    integer :: tri = 0, bedge = 0, node = 0
+  end type culprit_t
+
 contains
 
   !> Signed area of triangle t (positive for counter-clockwise vertices).
@@ -102,16 +114,37 @@ contains
     type(mesh_t), intent(inout) :: mesh
     type(status_t), intent(out) :: st
     integer, intent(out), optional :: bad_tri, bad_bedge, bad_node
-    integer, allocatable :: head(:), cnt(:), bucket_other(:), bucket_edge(:)
-    integer, allocatable :: bedge_of_edge(:), edge_local(:,:)
-    integer :: t, k, a, b, lo, hi, e, j, nb, ne, p, nxt, l, start, cur, steps
-    real(dp) :: area_tol, d(2), din(2), dout(2), len_in, len_out, sin_angle
-    character(len=320) :: buf
+    type(edge_table_t) :: tab
+    type(culprit_t) :: bad
+    integer, allocatable :: bedge_of_edge(:)
     logical, allocatable :: used(:)
 
-    if (present(bad_tri)) bad_tri = 0
-    if (present(bad_bedge)) bad_bedge = 0
-    if (present(bad_node)) bad_node = 0
+    call check_triangles(mesh, st, bad)
+    if (st%code == 0) call build_edges(mesh, tab, st, bad)
+    if (st%code == 0) then
+      ! every node must be a vertex (an unused node has no basis function support)
+      call mark_vertices(mesh, used)
+      call match_boundary_edges(mesh, tab, used, bedge_of_edge, st, bad)
+    end if
+    if (st%code == 0) call check_all_listed(mesh, bedge_of_edge, st, bad)
+    if (st%code == 0) call check_nodes_used(mesh, used, st, bad)
+    if (st%code == 0) call link_boundary_nodes(mesh, st)
+    if (st%code == 0) call trace_boundary_loops(mesh, bedge_of_edge, st)
+    if (st%code == 0) call mark_corners(mesh)
+    if (present(bad_tri)) bad_tri = bad%tri
+    if (present(bad_bedge)) bad_bedge = bad%bedge
+    if (present(bad_node)) bad_node = bad%node
+  end subroutine mesh_build_topology
+
+  !> Check the triangle list: enough nodes and triangles, vertex indices in range, and
+  !> every area above the tolerance (counter-clockwise vertices).
+  subroutine check_triangles(mesh, st, bad)
+    type(mesh_t), intent(in) :: mesh
+    type(status_t), intent(inout) :: st
+    type(culprit_t), intent(inout) :: bad
+    integer :: t
+    real(dp) :: area_tol
+    character(len=320) :: buf
 
     if (mesh%nnode < 3 .or. mesh%ntri < 1) then
       call set_error(st, DS_ERR_MESH, 'mesh: need at least 3 nodes and 1 triangle')
@@ -122,7 +155,7 @@ contains
       write (buf, '(a,i0,a,i0,a)') 'mesh: triangle ', t, ' has a vertex index outside 1..', &
         mesh%nnode, ' (node count)'
       call set_error(st, DS_ERR_MESH, trim(buf))
-      call culprit(tri=t)
+      bad%tri = t
       return
     end if
     area_tol = geom_rel_tol * mesh_diameter(mesh)**2
@@ -131,29 +164,41 @@ contains
         write (buf, '(a,i0,a)') 'mesh: triangle ', t, &
           ' has zero or negative area (expected counter-clockwise vertices)'
         call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(tri=t)
+        bad%tri = t
         return
       end if
     end do
+  end subroutine check_triangles
 
-    ! --- edges: bucket the 3*ntri half-edges by their smaller node (counting sort) ---
-    allocate (cnt(mesh%nnode + 1), source=0)
+  !> Number the edges: bucket the 3*ntri half-edges by their smaller node (counting sort),
+  !> giving edge_nodes, edge_tri, tri_edge and nedge, and the lookup table `tab` (with the
+  !> local edge number of each edge in its triangles).  Rejects repeated vertices and edges
+  !> of more than two triangles.
+  subroutine build_edges(mesh, tab, st, bad)
+    type(mesh_t), intent(inout) :: mesh
+    type(edge_table_t), intent(inout) :: tab
+    type(status_t), intent(inout) :: st
+    type(culprit_t), intent(inout) :: bad
+    integer :: t, k, a, b, lo, hi, e, j, ne, p
+    character(len=320) :: buf
+
+    allocate (tab%cnt(mesh%nnode + 1), source=0)
     do t = 1, mesh%ntri
       do k = 1, 3
         a = mesh%tri(k, t)
         b = mesh%tri(mod(k, 3) + 1, t)
         lo = min(a, b)
-        cnt(lo + 1) = cnt(lo + 1) + 1
+        tab%cnt(lo + 1) = tab%cnt(lo + 1) + 1
       end do
     end do
-    allocate (head(mesh%nnode + 1))
-    head(1) = 1
+    allocate (tab%head(mesh%nnode + 1))
+    tab%head(1) = 1
     do j = 1, mesh%nnode
-      head(j + 1) = head(j) + cnt(j + 1)
+      tab%head(j + 1) = tab%head(j) + tab%cnt(j + 1)
     end do
-    cnt = 0          ! now: number of distinct edges stored in bucket j
-    allocate (bucket_other(3 * mesh%ntri), bucket_edge(3 * mesh%ntri))
-    allocate (mesh%tri_edge(3, mesh%ntri), edge_local(2, 3 * mesh%ntri))
+    tab%cnt = 0          ! now: number of distinct edges stored in bucket j
+    allocate (tab%bucket_other(3 * mesh%ntri), tab%bucket_edge(3 * mesh%ntri))
+    allocate (mesh%tri_edge(3, mesh%ntri), tab%edge_local(2, 3 * mesh%ntri))
     ne = 0
     allocate (mesh%edge_nodes(2, 3 * mesh%ntri), mesh%edge_tri(2, 3 * mesh%ntri))
     mesh%edge_tri = 0
@@ -166,29 +211,29 @@ contains
         if (lo == hi) then
           write (buf, '(a,i0,a)') 'mesh: triangle ', t, ' repeats a vertex'
           call set_error(st, DS_ERR_MESH, trim(buf))
-          call culprit(tri=t)
+          bad%tri = t
           return
         end if
-        e = find_edge(lo, hi)
+        e = find_edge(tab, lo, hi)
         if (e == 0) then
           ne = ne + 1
           e = ne
-          p = head(lo) + cnt(lo)
-          cnt(lo) = cnt(lo) + 1
-          bucket_other(p) = hi
-          bucket_edge(p) = e
+          p = tab%head(lo) + tab%cnt(lo)
+          tab%cnt(lo) = tab%cnt(lo) + 1
+          tab%bucket_other(p) = hi
+          tab%bucket_edge(p) = e
           mesh%edge_nodes(:, e) = [lo, hi]
           mesh%edge_tri(1, e) = t
-          edge_local(1, e) = k
+          tab%edge_local(1, e) = k
         else if (mesh%edge_tri(2, e) == 0) then
           mesh%edge_tri(2, e) = t
-          edge_local(2, e) = k
+          tab%edge_local(2, e) = k
         else
           write (buf, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') 'mesh: edge (', lo, ',', hi, &
             ') is shared by more than two triangles (triangles ', mesh%edge_tri(1, e), ', ', &
             mesh%edge_tri(2, e), ' and ', t, '; expected at most two: overlapping triangles?)'
           call set_error(st, DS_ERR_MESH, trim(buf))
-          call culprit(tri=t)
+          bad%tri = t
           return
         end if
         mesh%tri_edge(k, t) = e
@@ -197,16 +242,35 @@ contains
     mesh%nedge = ne
     mesh%edge_nodes = mesh%edge_nodes(:, 1:ne)
     mesh%edge_tri = mesh%edge_tri(:, 1:ne)
+  end subroutine build_edges
 
-    ! --- every node must be a vertex (an unused node has no basis function support) ---
+  !> used(j): node j is a vertex of some triangle.
+  subroutine mark_vertices(mesh, used)
+    type(mesh_t), intent(in) :: mesh
+    logical, allocatable, intent(out) :: used(:)
+    integer :: t
     allocate (used(mesh%nnode), source=.false.)
     do t = 1, mesh%ntri
       used(mesh%tri(:, t)) = .true.
     end do
+  end subroutine mark_vertices
 
-    ! --- match the listed boundary edges to the topological ones ---
-    nb = count(mesh%edge_tri(2, :) == 0)
-    allocate (bedge_of_edge(ne), source=0)
+  !> Match the listed boundary edges to the topological ones (bedge_of_edge(e): the listed
+  !> edge on edge e, 0 for none), orient them with the domain on their left and compute
+  !> bedge_edge, bedge_tri, bedge_length and bedge_normal.  Rejects bad node indices and
+  !> markers, listed edges that are no side, interior sides and repeated sides.
+  subroutine match_boundary_edges(mesh, tab, used, bedge_of_edge, st, bad)
+    type(mesh_t), intent(inout) :: mesh
+    type(edge_table_t), intent(in) :: tab
+    logical, intent(in) :: used(:)
+    integer, allocatable, intent(out) :: bedge_of_edge(:)
+    type(status_t), intent(inout) :: st
+    type(culprit_t), intent(inout) :: bad
+    integer :: t, k, a, b, lo, hi, e, j
+    real(dp) :: d(2)
+    character(len=320) :: buf
+
+    allocate (bedge_of_edge(mesh%nedge), source=0)
     allocate (mesh%bedge_edge(mesh%nbedge), mesh%bedge_tri(mesh%nbedge), &
               mesh%bedge_normal(2, mesh%nbedge), mesh%bedge_length(mesh%nbedge))
     do j = 1, mesh%nbedge
@@ -216,19 +280,19 @@ contains
         write (buf, '(a,i0,a,i0)') 'mesh: boundary edge ', j, &
           ' has a node index outside 1..', mesh%nnode
         call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(bedge=j)
+        bad%bedge = j
         return
       end if
       if (mesh%bedge_marker(j) <= 0) then
         write (buf, '(a,i0,a)') 'mesh: boundary edge ', j, ' has no marker (expected an integer > 0)'
         call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(bedge=j)
+        bad%bedge = j
         return
       end if
       lo = min(a, b)
       hi = max(a, b)
       e = 0
-      if (lo /= hi) e = find_edge(lo, hi)
+      if (lo /= hi) e = find_edge(tab, lo, hi)
       if (e == 0) then
         if (.not. used(a) .or. .not. used(b)) then
           ! (A3): the end points of Gamma_u / Gamma_a pieces must be vertices of the triangulation
@@ -240,26 +304,26 @@ contains
             ') is not a side of any triangle (expected two vertices of one triangle)'
         end if
         call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(bedge=j)
+        bad%bedge = j
         return
       end if
       if (mesh%edge_tri(2, e) /= 0) then
         write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' (', lo, ',', hi, &
           ') is an interior edge (expected a side of only one triangle)'
         call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(bedge=j)
+        bad%bedge = j
         return
       end if
       if (bedge_of_edge(e) /= 0) then
         write (buf, '(a,i0,a,i0,a)') 'mesh: boundary edge ', j, ' repeats boundary edge ', &
           bedge_of_edge(e), ' (expected every boundary side once)'
         call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(bedge=j)
+        bad%bedge = j
         return
       end if
       bedge_of_edge(e) = j
       t = mesh%edge_tri(1, e)
-      k = edge_local(1, e)
+      k = tab%edge_local(1, e)
       ! orient as in the counter-clockwise triangle: the domain lies on the left
       mesh%bedge_nodes(:, j) = [mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t)]
       mesh%bedge_edge(j) = e
@@ -268,25 +332,103 @@ contains
       mesh%bedge_length(j) = hypot(d(1), d(2))
       mesh%bedge_normal(:, j) = [d(2), -d(1)] / mesh%bedge_length(j)
     end do
-    ! every listed edge matched a distinct topological boundary edge: any left are unlisted
-    if (nb /= mesh%nbedge) then
+  end subroutine match_boundary_edges
+
+  !> Every listed edge matched a distinct topological boundary edge: any left over are
+  !> unlisted, an error (reported for the first one).
+  subroutine check_all_listed(mesh, bedge_of_edge, st, bad)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: bedge_of_edge(:)
+    type(status_t), intent(inout) :: st
+    type(culprit_t), intent(inout) :: bad
+    integer :: e
+    if (count(mesh%edge_tri(2, :) == 0) /= mesh%nbedge) then
       e = findloc(mesh%edge_tri(2, :) == 0 .and. bedge_of_edge == 0, .true., dim=1)
-      call report_unlisted_side(e)
-      return
+      call report_unlisted_side(mesh, e, st, bad)
     end if
+  end subroutine check_all_listed
+
+  !> Error: the side edge_nodes(:, e) of triangle edge_tri(1, e) is a boundary side that
+  !> the boundary list lacks.  When a node lies inside it, or one of its end nodes lies
+  !> inside another boundary side, the mesh is non-conforming (hanging node): say so.
+  subroutine report_unlisted_side(mesh, e, st, bad)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: e
+    type(status_t), intent(inout) :: st
+    type(culprit_t), intent(inout) :: bad
+    integer :: c, f, hang, host, k
+    real(dp) :: tol
+    character(len=320) :: buf
+    tol = geom_rel_tol * mesh_diameter(mesh)
+    hang = 0
+    host = e
+    do c = 1, mesh%nnode
+      if (c == mesh%edge_nodes(1, e) .or. c == mesh%edge_nodes(2, e)) cycle
+      if (inside_segment(mesh%xy(:, c), mesh%xy(:, mesh%edge_nodes(1, e)), &
+                         mesh%xy(:, mesh%edge_nodes(2, e)), tol)) then
+        hang = c
+        exit
+      end if
+    end do
+    if (hang == 0) then
+      search: do f = 1, mesh%nedge
+        if (f == e .or. mesh%edge_tri(2, f) /= 0) cycle
+        do k = 1, 2
+          c = mesh%edge_nodes(k, e)
+          if (c == mesh%edge_nodes(1, f) .or. c == mesh%edge_nodes(2, f)) cycle
+          if (inside_segment(mesh%xy(:, c), mesh%xy(:, mesh%edge_nodes(1, f)), &
+                             mesh%xy(:, mesh%edge_nodes(2, f)), tol)) then
+            hang = c
+            host = f
+            exit search
+          end if
+        end do
+      end do search
+    end if
+    if (hang /= 0) then
+      write (buf, '(a,i0,a,i0,a,i0,a,i0,a)') 'mesh: node ', hang, ' lies inside the side (', &
+        mesh%edge_nodes(1, host), ',', mesh%edge_nodes(2, host), ') of triangle ', mesh%edge_tri(1, host), &
+        ' without being one of its vertices: a hanging node (expected a conforming triangulation, ' // &
+        'neighbouring triangles sharing whole sides)'
+      call set_error(st, DS_ERR_MESH, trim(buf))
+      bad%tri = mesh%edge_tri(1, host)
+    else
+      write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: the side (', mesh%edge_nodes(1, e), ',', &
+        mesh%edge_nodes(2, e), ') of triangle ', mesh%edge_tri(1, e), ' is on the boundary but not in ' // &
+        'the boundary list (expected every boundary side listed once, with a marker > 0)'
+      call set_error(st, DS_ERR_MESH, trim(buf))
+      bad%tri = mesh%edge_tri(1, e)
+    end if
+  end subroutine report_unlisted_side
+
+  !> Error for the first node that is not a vertex of any triangle.
+  subroutine check_nodes_used(mesh, used, st, bad)
+    type(mesh_t), intent(in) :: mesh
+    logical, intent(in) :: used(:)
+    type(status_t), intent(inout) :: st
+    type(culprit_t), intent(inout) :: bad
+    integer :: j
+    character(len=320) :: buf
     do j = 1, mesh%nnode
       if (.not. used(j)) then
         write (buf, '(a,i0,a)') 'mesh: node ', j, ' is not a vertex of any triangle (expected every ' // &
           'node to be used by a triangle)'
         call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(node=j)
+        bad%node = j
         return
       end if
     end do
+  end subroutine check_nodes_used
 
-    ! --- boundary loops: follow boundary edges head to tail ---
+  !> node_bedge_out / node_bedge_in: the boundary edge leaving / entering each node;
+  !> rejects a node that two boundary edges leave or enter.
+  subroutine link_boundary_nodes(mesh, st)
+    type(mesh_t), intent(inout) :: mesh
+    type(status_t), intent(inout) :: st
+    integer :: j, a, b
+    character(len=320) :: buf
     allocate (mesh%node_bedge_in(mesh%nnode), mesh%node_bedge_out(mesh%nnode), source=0)
-    do j = 1, nb
+    do j = 1, mesh%nbedge
       a = mesh%bedge_nodes(1, j)
       b = mesh%bedge_nodes(2, j)
       if (mesh%node_bedge_out(a) /= 0 .or. mesh%node_bedge_in(b) /= 0) then
@@ -298,14 +440,25 @@ contains
       mesh%node_bedge_out(a) = j
       mesh%node_bedge_in(b) = j
     end do
+  end subroutine link_boundary_nodes
+
+  !> Boundary loops (nloop, loop_start, loop_bedge): follow the boundary edges head to
+  !> tail; also allocates node_on_boundary (set here) and node_is_corner.  Rejects a loop
+  !> that does not close.  `visited` (size >= nbedge) is workspace.
+  subroutine trace_boundary_loops(mesh, visited, st)
+    type(mesh_t), intent(inout) :: mesh
+    integer, intent(inout) :: visited(:)
+    type(status_t), intent(inout) :: st
+    integer :: nb, p, l, start, cur, steps, nxt
+    nb = mesh%nbedge
     allocate (mesh%loop_bedge(nb), mesh%loop_start(nb + 1))
     allocate (mesh%node_on_boundary(mesh%nnode), mesh%node_is_corner(mesh%nnode))
     mesh%node_on_boundary = mesh%node_bedge_out /= 0
-    bedge_of_edge = 0            ! reused as "visited" flag per boundary edge
+    visited = 0            ! a flag per boundary edge
     p = 0
     l = 0
     do start = 1, nb
-      if (bedge_of_edge(start) /= 0) cycle
+      if (visited(start) /= 0) cycle
       l = l + 1
       mesh%loop_start(l) = p + 1
       cur = start
@@ -314,7 +467,7 @@ contains
         p = p + 1
         steps = steps + 1
         mesh%loop_bedge(p) = cur
-        bedge_of_edge(cur) = 1
+        visited(cur) = 1
         nxt = mesh%node_bedge_out(mesh%bedge_nodes(2, cur))
         if (nxt == start) exit
         if (nxt == 0 .or. steps > nb) then
@@ -327,8 +480,14 @@ contains
     mesh%nloop = l
     mesh%loop_start(l + 1) = p + 1
     mesh%loop_start = mesh%loop_start(1:l + 1)
+  end subroutine trace_boundary_loops
 
-    ! --- polygon corners ---
+  !> node_is_corner: boundary nodes where the incoming and outgoing boundary edges turn
+  !> (|sine of the angle| > corner_sin_tol) or reverse.
+  subroutine mark_corners(mesh)
+    type(mesh_t), intent(inout) :: mesh
+    integer :: j, a, b
+    real(dp) :: din(2), dout(2), len_in, len_out, sin_angle
     mesh%node_is_corner = .false.
     do j = 1, mesh%nnode
       if (.not. mesh%node_on_boundary(j)) cycle
@@ -342,79 +501,21 @@ contains
       ! a reversal (dot < 0) with sine ~ 0 is also a corner (a slit tip)
       mesh%node_is_corner(j) = abs(sin_angle) > corner_sin_tol .or. dot_product(din, dout) < 0.0_dp
     end do
+  end subroutine mark_corners
 
-  contains
-
-    !> Store the item an error is about in the optional output arguments.
-    subroutine culprit(tri, bedge, node)
-      integer, intent(in), optional :: tri, bedge, node
-      if (present(tri) .and. present(bad_tri)) bad_tri = tri
-      if (present(bedge) .and. present(bad_bedge)) bad_bedge = bedge
-      if (present(node) .and. present(bad_node)) bad_node = node
-    end subroutine culprit
-
-    !> Error: the side edge_nodes(:, e) of triangle edge_tri(1, e) is a boundary side that
-    !> the boundary list lacks.  When a node lies inside it, or one of its end nodes lies
-    !> inside another boundary side, the mesh is non-conforming (hanging node): say so.
-    subroutine report_unlisted_side(e)
-      integer, intent(in) :: e
-      integer :: c, f, hang, host, k
-      real(dp) :: tol
-      tol = geom_rel_tol * mesh_diameter(mesh)
-      hang = 0
-      host = e
-      do c = 1, mesh%nnode
-        if (c == mesh%edge_nodes(1, e) .or. c == mesh%edge_nodes(2, e)) cycle
-        if (inside_segment(mesh%xy(:, c), mesh%xy(:, mesh%edge_nodes(1, e)), &
-                           mesh%xy(:, mesh%edge_nodes(2, e)), tol)) then
-          hang = c
-          exit
-        end if
-      end do
-      if (hang == 0) then
-        search: do f = 1, mesh%nedge
-          if (f == e .or. mesh%edge_tri(2, f) /= 0) cycle
-          do k = 1, 2
-            c = mesh%edge_nodes(k, e)
-            if (c == mesh%edge_nodes(1, f) .or. c == mesh%edge_nodes(2, f)) cycle
-            if (inside_segment(mesh%xy(:, c), mesh%xy(:, mesh%edge_nodes(1, f)), &
-                               mesh%xy(:, mesh%edge_nodes(2, f)), tol)) then
-              hang = c
-              host = f
-              exit search
-            end if
-          end do
-        end do search
+  !> The edge (lo, hi), lo < hi, already stored in lo's bucket of `tab`, or 0.
+  pure integer function find_edge(tab, lo, hi) result(edge)
+    type(edge_table_t), intent(in) :: tab
+    integer, intent(in) :: lo, hi
+    integer :: q
+    edge = 0
+    do q = tab%head(lo), tab%head(lo) + tab%cnt(lo) - 1
+      if (tab%bucket_other(q) == hi) then
+        edge = tab%bucket_edge(q)
+        return
       end if
-      if (hang /= 0) then
-        write (buf, '(a,i0,a,i0,a,i0,a,i0,a)') 'mesh: node ', hang, ' lies inside the side (', &
-          mesh%edge_nodes(1, host), ',', mesh%edge_nodes(2, host), ') of triangle ', mesh%edge_tri(1, host), &
-          ' without being one of its vertices: a hanging node (expected a conforming triangulation, ' // &
-          'neighbouring triangles sharing whole sides)'
-        call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(tri=mesh%edge_tri(1, host))
-      else
-        write (buf, '(a,i0,a,i0,a,i0,a)') 'mesh: the side (', mesh%edge_nodes(1, e), ',', &
-          mesh%edge_nodes(2, e), ') of triangle ', mesh%edge_tri(1, e), ' is on the boundary but not in ' // &
-          'the boundary list (expected every boundary side listed once, with a marker > 0)'
-        call set_error(st, DS_ERR_MESH, trim(buf))
-        call culprit(tri=mesh%edge_tri(1, e))
-      end if
-    end subroutine report_unlisted_side
-
-    !> The edge (lo, hi), lo < hi, already stored in lo's bucket, or 0.
-    pure integer function find_edge(lo, hi) result(edge)
-      integer, intent(in) :: lo, hi
-      integer :: q
-      edge = 0
-      do q = head(lo), head(lo) + cnt(lo) - 1
-        if (bucket_other(q) == hi) then
-          edge = bucket_edge(q)
-          return
-        end if
-      end do
-    end function find_edge
-  end subroutine mesh_build_topology
+    end do
+  end function find_edge
 
   !> True when point p lies on the segment from a to b, strictly between its end points:
   !> distance to the line <= tol and the projection more than tol from both ends.

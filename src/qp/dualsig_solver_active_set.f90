@@ -105,6 +105,14 @@ module dualsig_solver_active_set
   !> Share of a first factorisation (analysis + numeric) taken as the numeric part.
   real(dp), parameter :: refactor_share = 0.7_dp
 
+  !> State of one active_set_solve call carried from step to step.
+  type :: active_set_run_t
+    real(dp) :: t_solve = -1.0_dp        !! measured seconds of one solve with the kept factor (< 0: not yet)
+    real(dp) :: t_refactor = -1.0_dp     !! measured (or estimated) seconds of a numeric refactorisation
+    integer :: nhist = 0                 !! sets remembered in hist
+    integer(i8) :: hist(3, history_len)  !! hashes of the sets tried (ring, for cycle detection)
+  end type active_set_run_t
+
 contains
 
   !> Release the factor kept in a workspace.
@@ -134,12 +142,11 @@ contains
     type(active_set_workspace_t), intent(inout), optional, target :: ws
     type(active_set_workspace_t), target :: local
     type(active_set_workspace_t), pointer :: w
+    type(active_set_run_t) :: run
     logical, allocatable :: fixed(:), fixed_new(:)
     real(dp), allocatable :: g(:), rhs(:), xb(:)
-    integer(i8) :: hist(3, history_len)
-    integer :: it, nhist, k
-    logical :: cycled, had_factor, border
-    real(dp) :: t_solve, t_refactor, t0
+    integer :: it
+    logical :: cycled
 
     if (present(ws)) then
       w => ws
@@ -153,71 +160,28 @@ contains
       ! would mispredict where u and its flux are both small
       fixed = kind == BOUND_FIXED .or. (kind == BOUND_LOWER .and. x <= bnd)
     else
-      call predict_fixed(fixed)
+      call predict_fixed(a, f, kind, bnd, x, g, fixed)
     end if
     if (.not. w%have_factor) w%ar = a
     w%base_valid = .false.               ! f may differ from the last call's
-    nhist = 0
+    run%nhist = 0
     cycled = .false.
     ! costs measured in earlier calls with the same kept factor (unknown until measured)
-    t_solve = merge(w%t_solve, -1.0_dp, w%have_factor)
-    t_refactor = merge(w%t_refactor, -1.0_dp, w%have_factor)
+    run%t_solve = merge(w%t_solve, -1.0_dp, w%have_factor)
+    run%t_refactor = merge(w%t_refactor, -1.0_dp, w%have_factor)
     do it = 1, settings%max_iter
-      ! right-hand side of the reduced system: bound values moved to the right
-      xb = 0.0_dp
-      where (fixed) xb = bnd
-      call csr_matvec(a, xb, rhs)
-      rhs = f - rhs
-      where (fixed) rhs = bnd
-      k = -1
-      border = .false.
-      if (w%have_factor) then
-        k = count(w%fixed .neqv. fixed)
-        if (k > 0) border = bordering_pays(k, uncached_count(w, fixed))
-      end if
-      if (k == 0) then
-        t0 = wall_seconds()
-        call cholesky_solve(w%chol, rhs, x, st)
-        t_solve = wall_seconds() - t0
-        call keep_base()
-      else if (border) then
-        call bordered_solve(a, w, settings%max_lowrank, fixed, rhs, bnd, x, st)
-        res%lowrank_solves = res%lowrank_solves + 1
-        ! bordering on a badly conditioned factor (e.g. a penalised matrix) can lose the
-        ! accuracy a factorisation of M(F) would have: then refactorise after all
-        if (st%code == 0) then
-          if (backward_error(a, fixed, rhs, x) > settings%bordered_tol) then
-            border = .false.
-            res%lowrank_solves = res%lowrank_solves - 1
-          end if
-        end if
-      end if
-      if (k /= 0 .and. .not. border .and. st%code == 0) then
-        had_factor = w%have_factor
-        t0 = wall_seconds()
-        call factor_reduced(fixed)
-        if (st%code /= 0) exit
-        ! a numeric refactorisation is timed; a first factorisation (with its analysis) estimates it
-        if (had_factor) then
-          t_refactor = wall_seconds() - t0
-        else if (t_refactor < 0.0_dp) then
-          t_refactor = refactor_share * (wall_seconds() - t0)
-        end if
-        t0 = wall_seconds()
-        call cholesky_solve(w%chol, rhs, x, st)
-        t_solve = wall_seconds() - t0
-        call keep_base()
-      end if
+      call reduced_rhs(a, f, bnd, fixed, xb, rhs)
+      call solve_held_set(a, bnd, fixed, rhs, settings, w, run, x, res, st)
       if (st%code /= 0) exit
       res%iterations = it
-      call predict_fixed(fixed_new)
+      call predict_fixed(a, f, kind, bnd, x, g, fixed_new)
       if (all(fixed_new .eqv. fixed)) then
         res%converged = .true.
         exit
       end if
       ! cycle detection: the new set was tried before
-      call remember(fixed)
-      if (seen(fixed_new)) then
+      call remember(run, it, fixed)
+      if (seen(run, fixed_new)) then
         cycled = .true.
         exit
       end if
@@ -225,15 +189,15 @@ contains
     end do
     res%nnz_factor = w%chol%nnz_factor
     res%ordering = w%chol%ordering
-    w%t_solve = t_solve
-    w%t_refactor = t_refactor
+    w%t_solve = run%t_solve
+    w%t_refactor = run%t_refactor
     if (.not. present(ws)) call active_set_workspace_free(local)
     if (st%code /= 0) return
     where (kind == BOUND_LOWER) x = max(x, bnd)
     where (kind == BOUND_FIXED) x = bnd
     if (.not. res%converged) then
       if (settings%fallback) then
-        call fall_back()
+        call fall_back(a, f, kind, bnd, settings, cycled, x, res, st)
       else
         call set_warning(st, DS_WARN_NOT_CONVERGED, 'active set: ' // &
           trim(merge('cycle detected     ', 'iteration limit hit', cycled)) // ' after ' // itoa(res%iterations) // &
@@ -243,113 +207,214 @@ contains
     if (.not. is_ok(st)) return
     res%nactive = count(kind == BOUND_LOWER .and. x <= bnd)
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, g)
-
-  contains
-
-    !> Remember the plain solve just done (held set = the factor's) for bordered steps.
-    subroutine keep_base()
-      if (st%code /= 0) return
-      w%base_rhs = rhs
-      w%base_sol = x
-      w%base_valid = .true.
-    end subroutine keep_base
-
-    !> Bordering with k changed unknowns, `fresh` of them not cached (at most one solve plus a
-    !> block solve with 2 right-hand sides per fresh unknown), is predicted cheaper than a
-    !> numeric refactorisation and its solve; before anything was timed, only small k are
-    !> bordered.
-    logical function bordering_pays(k, fresh)
-      integer, intent(in) :: k, fresh
-      if (k > settings%max_lowrank) then
-        bordering_pays = .false.
-      else if (.not. settings%lowrank_by_cost) then
-        bordering_pays = .true.
-      else if (t_solve < 0.0_dp .or. t_refactor < 0.0_dp) then
-        bordering_pays = k <= untimed_lowrank
-      else
-        ! a solve with m right-hand sides costs about (1 + multi_rhs_cost m) single solves
-        bordering_pays = (1.0_dp + merge(1.0_dp + 2.0_dp * multi_rhs_cost * fresh, 0.0_dp, fresh > 0)) * t_solve &
-                         < t_refactor + t_solve
-      end if
-    end function bordering_pays
-
-    !> The unknowns held at their bound by the next step: fixed ones, and bounded ones with
-    !> g_i - A_ii (x_i - bnd_i) > 0 for the current x (g = A x - F is left in g).
-    subroutine predict_fixed(at_bound)
-      logical, intent(out) :: at_bound(:)
-      integer :: j
-      call csr_matvec(a, x, g)
-      g = g - f
-      at_bound = kind == BOUND_FIXED
-      do j = 1, a%n
-        if (kind(j) == BOUND_LOWER) at_bound(j) = g(j) - a%val(a%diag(j)) * (x(j) - bnd(j)) > 0.0_dp
-      end do
-    end subroutine predict_fixed
-
-    !> Factorise M(held) (numeric only after the first time) and keep it in the workspace.
-    subroutine factor_reduced(held)
-      logical, intent(in) :: held(:)
-      call reduced_values(a, held, w%ar)
-      if (.not. w%have_factor) then
-        call cholesky_factor(w%ar, w%chol, st, settings%ordering, settings%perm)
-      else
-        call cholesky_refactor(w%ar, w%chol, st)
-      end if
-      if (st%code /= 0) return
-      w%have_factor = .true.
-      w%fixed = held
-      w%ncache = 0                       ! the cached columns belonged to the old factor
-      res%factorisations = res%factorisations + 1
-    end subroutine factor_reduced
-
-    !> Three small hashes of a set (count, sum of indices, sum of squares mod a prime).
-    pure function set_hash(s) result(h)
-      logical, intent(in) :: s(:)
-      integer(i8) :: h(3)
-      integer :: j
-      integer(i8), parameter :: prime = 2147483647_i8
-      h = 0
-      do j = 1, size(s)
-        if (.not. s(j)) cycle
-        h(1) = h(1) + 1
-        h(2) = h(2) + j
-        h(3) = mod(h(3) + mod(int(j, i8) * int(j, i8), prime), prime)
-      end do
-    end function set_hash
-
-    subroutine remember(s)
-      logical, intent(in) :: s(:)
-      nhist = min(nhist + 1, history_len)
-      hist(:, 1 + mod(it - 1, history_len)) = set_hash(s)
-    end subroutine remember
-
-    logical function seen(s)
-      logical, intent(in) :: s(:)
-      integer(i8) :: h(3)
-      integer :: j
-      h = set_hash(s)
-      seen = .false.
-      do j = 1, nhist
-        if (all(hist(:, j) == h)) seen = .true.
-      end do
-    end function seen
-
-    !> Projected SOR from the current feasible iterate (cycle or iteration limit).
-    subroutine fall_back()
-      type(psor_settings_t) :: ps
-      type(psor_result_t) :: pr
-      res%fallback = .true.
-      ps%omega = 1.0_dp
-      ps%tol = settings%fallback_tol
-      ps%max_iter = settings%fallback_max_iter
-      call psor_solve(a, f, kind, bnd, x, ps, pr, st)
-      res%converged = pr%converged
-      if (is_ok(st)) call set_warning(st, DS_WARN_NOT_CONVERGED, 'active set: ' // &
-        trim(merge('cycle detected     ', 'iteration limit hit', cycled)) // ' after ' // itoa(res%iterations) // &
-        ' iterations; projected SOR fallback, ' // itoa(pr%iterations) // ' sweeps, ' // &
-        trim(merge('converged    ', 'not converged', pr%converged)))
-    end subroutine fall_back
   end subroutine active_set_solve
+
+  !> Right-hand side of the reduced system M(fixed) x = rhs: the bound values of the held
+  !> unknowns moved to the right (xb is workspace).
+  subroutine reduced_rhs(a, f, bnd, fixed, xb, rhs)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:), bnd(:)
+    logical, intent(in) :: fixed(:)
+    real(dp), intent(inout) :: xb(:), rhs(:)
+    xb = 0.0_dp
+    where (fixed) xb = bnd
+    call csr_matvec(a, xb, rhs)
+    rhs = f - rhs
+    where (fixed) rhs = bnd
+  end subroutine reduced_rhs
+
+  !> One active-set step: x = M(fixed)^{-1} rhs, by a solve with the kept factor when its
+  !> held set is `fixed`, by bordering the kept factor when that is predicted cheaper (and
+  !> accurate enough), else by a (re)factorisation of M(fixed).  Updates the measured costs
+  !> in `run` and the counters in `res`.
+  subroutine solve_held_set(a, bnd, fixed, rhs, settings, w, run, x, res, st)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: bnd(:)
+    logical, intent(in) :: fixed(:)
+    real(dp), intent(in) :: rhs(:)
+    type(active_set_settings_t), intent(in) :: settings
+    type(active_set_workspace_t), intent(inout) :: w
+    type(active_set_run_t), intent(inout) :: run
+    real(dp), intent(inout) :: x(:)
+    type(active_set_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    integer :: k
+    logical :: had_factor, border
+    real(dp) :: t0
+
+    k = -1
+    border = .false.
+    if (w%have_factor) then
+      k = count(w%fixed .neqv. fixed)
+      if (k > 0) border = bordering_pays(settings, run, k, uncached_count(w, fixed))
+    end if
+    if (k == 0) then
+      t0 = wall_seconds()
+      call cholesky_solve(w%chol, rhs, x, st)
+      run%t_solve = wall_seconds() - t0
+      call keep_base(rhs, x, w, st)
+    else if (border) then
+      call bordered_solve(a, w, settings%max_lowrank, fixed, rhs, bnd, x, st)
+      res%lowrank_solves = res%lowrank_solves + 1
+      ! bordering on a badly conditioned factor (e.g. a penalised matrix) can lose the
+      ! accuracy a factorisation of M(F) would have: then refactorise after all
+      if (st%code == 0) then
+        if (backward_error(a, fixed, rhs, x) > settings%bordered_tol) then
+          border = .false.
+          res%lowrank_solves = res%lowrank_solves - 1
+        end if
+      end if
+    end if
+    if (k /= 0 .and. .not. border .and. st%code == 0) then
+      had_factor = w%have_factor
+      t0 = wall_seconds()
+      call factor_reduced(a, fixed, settings, w, res, st)
+      if (st%code /= 0) return
+      ! a numeric refactorisation is timed; a first factorisation (with its analysis) estimates it
+      if (had_factor) then
+        run%t_refactor = wall_seconds() - t0
+      else if (run%t_refactor < 0.0_dp) then
+        run%t_refactor = refactor_share * (wall_seconds() - t0)
+      end if
+      t0 = wall_seconds()
+      call cholesky_solve(w%chol, rhs, x, st)
+      run%t_solve = wall_seconds() - t0
+      call keep_base(rhs, x, w, st)
+    end if
+  end subroutine solve_held_set
+
+  !> Remember the plain solve just done (held set = the factor's) for bordered steps.
+  subroutine keep_base(rhs, x, w, st)
+    real(dp), intent(in) :: rhs(:), x(:)
+    type(active_set_workspace_t), intent(inout) :: w
+    type(status_t), intent(in) :: st
+    if (st%code /= 0) return
+    w%base_rhs = rhs
+    w%base_sol = x
+    w%base_valid = .true.
+  end subroutine keep_base
+
+  !> Bordering with k changed unknowns, `fresh` of them not cached (at most one solve plus a
+  !> block solve with 2 right-hand sides per fresh unknown), is predicted cheaper than a
+  !> numeric refactorisation and its solve; before anything was timed, only small k are
+  !> bordered.
+  logical function bordering_pays(settings, run, k, fresh)
+    type(active_set_settings_t), intent(in) :: settings
+    type(active_set_run_t), intent(in) :: run
+    integer, intent(in) :: k, fresh
+    if (k > settings%max_lowrank) then
+      bordering_pays = .false.
+    else if (.not. settings%lowrank_by_cost) then
+      bordering_pays = .true.
+    else if (run%t_solve < 0.0_dp .or. run%t_refactor < 0.0_dp) then
+      bordering_pays = k <= untimed_lowrank
+    else
+      ! a solve with m right-hand sides costs about (1 + multi_rhs_cost m) single solves
+      bordering_pays = (1.0_dp + merge(1.0_dp + 2.0_dp * multi_rhs_cost * fresh, 0.0_dp, fresh > 0)) * run%t_solve &
+                       < run%t_refactor + run%t_solve
+    end if
+  end function bordering_pays
+
+  !> The unknowns held at their bound by the next step: fixed ones, and bounded ones with
+  !> g_i - A_ii (x_i - bnd_i) > 0 for the current x (g = A x - F is left in g).
+  subroutine predict_fixed(a, f, kind, bnd, x, g, at_bound)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:), x(:)
+    real(dp), intent(inout) :: g(:)
+    logical, intent(out) :: at_bound(:)
+    integer :: j
+    call csr_matvec(a, x, g)
+    g = g - f
+    at_bound = kind == BOUND_FIXED
+    do j = 1, a%n
+      if (kind(j) == BOUND_LOWER) at_bound(j) = g(j) - a%val(a%diag(j)) * (x(j) - bnd(j)) > 0.0_dp
+    end do
+  end subroutine predict_fixed
+
+  !> Factorise M(held) (numeric only after the first time) and keep it in the workspace.
+  subroutine factor_reduced(a, held, settings, w, res, st)
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: held(:)
+    type(active_set_settings_t), intent(in) :: settings
+    type(active_set_workspace_t), intent(inout) :: w
+    type(active_set_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    call reduced_values(a, held, w%ar)
+    if (.not. w%have_factor) then
+      call cholesky_factor(w%ar, w%chol, st, settings%ordering, settings%perm)
+    else
+      call cholesky_refactor(w%ar, w%chol, st)
+    end if
+    if (st%code /= 0) return
+    w%have_factor = .true.
+    w%fixed = held
+    w%ncache = 0                       ! the cached columns belonged to the old factor
+    res%factorisations = res%factorisations + 1
+  end subroutine factor_reduced
+
+  !> Three small hashes of a set (count, sum of indices, sum of squares mod a prime).
+  pure function set_hash(s) result(h)
+    logical, intent(in) :: s(:)
+    integer(i8) :: h(3)
+    integer :: j
+    integer(i8), parameter :: prime = 2147483647_i8
+    h = 0
+    do j = 1, size(s)
+      if (.not. s(j)) cycle
+      h(1) = h(1) + 1
+      h(2) = h(2) + j
+      h(3) = mod(h(3) + mod(int(j, i8) * int(j, i8), prime), prime)
+    end do
+  end function set_hash
+
+  !> Record the hash of the set s tried in iteration it (a ring of history_len sets).
+  subroutine remember(run, it, s)
+    type(active_set_run_t), intent(inout) :: run
+    integer, intent(in) :: it
+    logical, intent(in) :: s(:)
+    run%nhist = min(run%nhist + 1, history_len)
+    run%hist(:, 1 + mod(it - 1, history_len)) = set_hash(s)
+  end subroutine remember
+
+  !> The set s (by its hash) was tried before.
+  logical function seen(run, s)
+    type(active_set_run_t), intent(in) :: run
+    logical, intent(in) :: s(:)
+    integer(i8) :: h(3)
+    integer :: j
+    h = set_hash(s)
+    seen = .false.
+    do j = 1, run%nhist
+      if (all(run%hist(:, j) == h)) seen = .true.
+    end do
+  end function seen
+
+  !> Projected SOR from the current feasible iterate (cycle or iteration limit).
+  subroutine fall_back(a, f, kind, bnd, settings, cycled, x, res, st)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    type(active_set_settings_t), intent(in) :: settings
+    logical, intent(in) :: cycled
+    real(dp), intent(inout) :: x(:)
+    type(active_set_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    type(psor_settings_t) :: ps
+    type(psor_result_t) :: pr
+    res%fallback = .true.
+    ps%omega = 1.0_dp
+    ps%tol = settings%fallback_tol
+    ps%max_iter = settings%fallback_max_iter
+    call psor_solve(a, f, kind, bnd, x, ps, pr, st)
+    res%converged = pr%converged
+    if (is_ok(st)) call set_warning(st, DS_WARN_NOT_CONVERGED, 'active set: ' // &
+      trim(merge('cycle detected     ', 'iteration limit hit', cycled)) // ' after ' // itoa(res%iterations) // &
+      ' iterations; projected SOR fallback, ' // itoa(pr%iterations) // ' sweeps, ' // &
+      trim(merge('converged    ', 'not converged', pr%converged)))
+  end subroutine fall_back
 
   !> ar = M(held): the values of a with identity rows and columns for the held unknowns.
   pure subroutine reduced_values(a, held, ar)
