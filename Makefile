@@ -119,20 +119,22 @@ run: deps
 TEST_PF   := $(sort $(wildcard test/test_*.pf))
 TBLD      := build/test
 
+# The flags of the test modules, for both runners: the checked debug build's, as the library.
+TEST_BUILD ?= debug
+TEST_FLAGS ?= $(DEBUG_FLAGS)
+TEST_FFLAGS = $(STD_FLAGS) $(TEST_FLAGS) -Wno-unused-dummy-argument
+
 ifdef PFUNIT_DIR
-# Real pFUnit 4: the same .pf files through pFUnit's own preprocessor and runner.
-include $(PFUNIT_DIR)/include/PFUNIT.mk
-FFLAGS += $(PFUNIT_EXTRA_FFLAGS) -I$(CURDIR)/build/debug/mod
-dualsig_tests_TESTS := $(notdir $(TEST_PF))
-dualsig_tests_OTHER_LIBRARIES := $(CURDIR)/build/debug/libdualsig.a $(LIBS)
-dualsig_tests_OTHER_INCS := -I$(CURDIR)/build/debug/mod
-%.o: %.F90
-	$(FC) -c $(FFLAGS) $<
+# make check PFUNIT_DIR=<pFUnit 4 install>: the same .pf files through pFUnit's own preprocessor
+# and runner (sub-make test/pfunit.mk, products in build/test-pfunit), run from the source tree
+# as check-lite runs them.
+PFUNIT_BLD := build/test-pfunit
 check: deps
 	@$(MAKE) BUILD=debug all
-	@cd test && $(MAKE) -f ../Makefile PFUNIT_DIR=$(PFUNIT_DIR) dualsig_tests
-	@cd test && DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./dualsig_tests
-$(eval $(call make_pfunit_test,dualsig_tests))
+	@mkdir -p $(PFUNIT_BLD)
+	@$(MAKE) -C $(PFUNIT_BLD) -f $(CURDIR)/test/pfunit.mk ROOT=$(CURDIR) PFUNIT_DIR=$(abspath $(PFUNIT_DIR)) \
+	   FC='$(FC)' TEST_PF='$(abspath $(TEST_PF))' TEST_FFLAGS='$(TEST_FFLAGS)' LIBS='$(LIBS)' dualsig_tests
+	@DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./$(PFUNIT_BLD)/dualsig_tests
 else
 check: deps
 	@$(MAKE) BUILD=debug all
@@ -148,12 +150,10 @@ check-layers:
 
 # The fallback runner: test/pfunit_lite.py translates the .pf subset into Fortran.
 # TEST_BUILD names the library build the suite links (debug, or asan for check-asan).
-TEST_BUILD ?= debug
-TEST_FLAGS ?= $(DEBUG_FLAGS)
 check-lite:
 	@mkdir -p $(TBLD)-$(TEST_BUILD)
 	@python3 test/pfunit_lite.py --out-dir $(TBLD)-$(TEST_BUILD) $(TEST_PF)
-	@$(FC) $(STD_FLAGS) $(TEST_FLAGS) -Wno-unused-dummy-argument -J$(TBLD)-$(TEST_BUILD) -I$(TBLD)-$(TEST_BUILD) \
+	@$(FC) $(TEST_FFLAGS) -J$(TBLD)-$(TEST_BUILD) -I$(TBLD)-$(TEST_BUILD) \
 	   -Ibuild/$(TEST_BUILD)/mod test/lite/funit.f90 $(patsubst test/%.pf,$(TBLD)-$(TEST_BUILD)/%.F90,$(TEST_PF)) \
 	   $(TBLD)-$(TEST_BUILD)/pfunit_lite_main.F90 -o $(TBLD)-$(TEST_BUILD)/dualsig_tests \
 	   build/$(TEST_BUILD)/libdualsig.a $(LIBS)

@@ -23,10 +23,21 @@ silently dropped):
   @assertGreaterThanOrEqual(a, b [, message])   a >= b
   @assertIsFinite(x [, message])
 
-Directive names are case-insensitive, as in pFUnit.  An assertion may be continued over several
-lines with "&" (no comment or blank lines inside it); its arguments are passed unchanged, so the
-keyword forms tolerance= and message= work as written.  Which argument types are accepted is
-decided by the generic interfaces of test/lite/funit.f90 at compile time.
+Directive names are case-insensitive, as in pFUnit.  The arguments of an assertion are passed
+unchanged, so the keyword forms tolerance= and message= work as written.  Which argument types
+are accepted is decided by the generic interfaces of test/lite/funit.f90 at compile time.
+
+Rejected as well, because genuine pFUnit 4 (its preprocessor funitproc and the compilation of
+its output) rejects them, so that a suite accepted here also builds under real pFUnit
+(make check PFUNIT_DIR=...; see doc/pfunit.md):
+
+  - a directive continued with "&": funitproc recognises a directive only when it is complete
+    on one line and copies a continued one unchanged, which the compiler then rejects;
+  - a module procedure, module variable or derived type named like a public name of pFUnit's
+    module funit (FUNIT_PUBLIC_NAMES, e.g. "run"): every test module does "use funit", so the
+    name would clash with the use-associated one;
+  - an assertion whose translation by funitproc, "  call assertXxx(<arguments>, &", is longer
+    than 132 characters (gfortran's free-form limit).
 
 Each assertion becomes
 
@@ -63,12 +74,56 @@ ANNOTATIONS = ('test', 'before', 'after')
 # Keywords that the translator itself passes to funit.
 RESERVED_KEYWORDS = ('location', 'expression')
 
+# The public names of pFUnit 4.14's module funit (lower case).  Obtained from the gfortran module
+# file PFUNIT-4.14/include/funit.mod of the genuine install (/work/shared/pfunit): the names of its
+# generic interfaces (third section of the file) and of its symbol tree (last section), which
+# gfortran writes for public entities only, leaving out compiler-generated names ("__...").
+# Checked with gfortran 12: a module that does "use funit" and defines a procedure of any of
+# these names does not compile ("already ... from module funit"); other names, e.g.
+# assertIsMemberOf, do.
+FUNIT_PUBLIC_NAMES = frozenset("""
+abstractmatcher abstracttestparameter all_of allof any_of anyexceptions anyof array_with_size
+assert_that assertall assertany assertequal assertexceptionraised assertfail assertfalse
+assertgreaterthan assertgreaterthanorequal assertisfinite assertisnan assertlessthan
+assertlessthanorequal assertnone assertnotall assertnotequal assertrelativelyequal
+assertsameshape asserttrue basetestrunner catch catchnext contains_string debuglistener disable
+empty_array ends_with equal_to every every_item expectation false fhamcrest finalize funit
+generic_run get_context ignore_all ignore_differences initialize is isarraywithsize isequal
+isnear isnot iso_fortran_env isrelativelynear istrueorfalse keep_all listenerpointer
+loadtests_interface matchable matcherdescription namefilter near not output_unit
+parallelcontext parameterizedtestcase predicate relatively_near remoterunner resultprinter
+robustrunner run serialcontext sourcelocation starts_with stringcontains stringdescription
+stringendswith stringstartswith stub subject taplistener test testannotation testcase
+testlistener testlistenervector testmethod testresult testrunner testsuite throw
+timeoutannotation trim_all true wascalled wascalledonce wasnotcalled whitespaceoptions
+xmlprinter
+""".split())
+
 MODULE_RE = re.compile(r'^\s*module\s+(\w+)\s*$', re.IGNORECASE)
 # "module NAME ! comment": a module statement that pFUnit's parser would not recognise.
 MODULE_COMMENT_RE = re.compile(r'^\s*module\s+(?!procedure\b)(\w+)\s*!', re.IGNORECASE)
 USE_FUNIT_RE = re.compile(r'^\s*use\s*(?:::\s*)?funit\b(.*)$', re.IGNORECASE)
 SUBROUTINE_RE = re.compile(r'^\s*subroutine\s+(\w+)\s*(\([^)]*\))?\s*(!.*)?$', re.IGNORECASE)
 KEYWORD_RE = re.compile(r'^\s*([A-Za-z]\w*)\s*=(?!=)')
+# For the scope of module-level names: procedure statements (with an optional prefix and type),
+# their end statements, interface blocks and derived-type definitions.
+PROC_START_RE = re.compile(
+    r'^\s*(?:(?:pure|impure|elemental|recursive|non_recursive|module)\s+)*'
+    r'(?:(?:integer|real|logical|complex|character|double\s*precision|type|class)\s*'
+    r'(?:\((?:[^()]|\([^()]*\))*\))?\s*(?:(?:pure|impure|elemental|recursive|non_recursive)\s+)*)?'
+    r'(subroutine|function)\s+(\w+)', re.IGNORECASE)
+PROC_END_RE = re.compile(r'^\s*end\s*(?:(?:subroutine|function)\b|$|!)', re.IGNORECASE)
+INTERFACE_RE = re.compile(r'^\s*(?:abstract\s+)?interface\b', re.IGNORECASE)
+END_INTERFACE_RE = re.compile(r'^\s*end\s*interface\b', re.IGNORECASE)
+TYPE_DEF_RE = re.compile(r'^\s*type\s*(?:,[^:]*)?(?:::)?\s*(\w+)\s*(?:\(.*\))?\s*(?:!.*)?$', re.IGNORECASE)
+END_TYPE_RE = re.compile(r'^\s*end\s*type\b', re.IGNORECASE)
+CONTAINS_RE = re.compile(r'^\s*contains\s*(?:!.*)?$', re.IGNORECASE)
+# statements with "::" that declare no new entity
+NOT_DECLARATION_RE = re.compile(r'^\s*(?:use|public|private|protected|save|import|procedure\s*::)\b',
+                                re.IGNORECASE)
+# pFUnit's funitproc: the assertion directives it recognises (a whole line) and the first line
+# it writes for one, "  call assert<name>(<arguments>, &"
+FUNITPROC_ASSERT_RE = re.compile(r'\s*@assert(\w+)\s*\((.*)\)\s*$', re.IGNORECASE)
 
 
 class PfError(Exception):
@@ -244,35 +299,19 @@ def scan_segment(seg, quote):
 
 
 def gather_directive(lines, start):
-    """Join the physical lines of the directive starting at index `start` (Fortran free-form
-    continuation rules).  Returns (text, index of its last line)."""
-    seg = lines[start].lstrip()
-    text = ''
-    quote = None
-    j = start
-    while True:
-        try:
-            content, continued, quote = scan_segment(seg, quote)
-        except ValueError as e:
-            raise PfError(j + 1, str(e))
-        text += content
-        if not continued:
-            break
-        j += 1
-        if j >= len(lines):
-            raise PfError(start + 1, 'directive continued past the end of the file')
-        nxt = lines[j].lstrip()
-        if nxt == '' or (nxt.startswith('!') and not quote):
-            raise PfError(j + 1, 'blank or comment line inside a continued directive')
-        if nxt.startswith('&'):
-            seg = nxt[1:]
-        elif quote:
-            raise PfError(j + 1, 'a continued character literal needs "&" at the start of the next line')
-        else:
-            seg = nxt
+    """The text of the directive at index `start`, which must be complete on its line (as for
+    pFUnit's funitproc).  Returns (text, index of its last line, i.e. `start`)."""
+    try:
+        text, continued, quote = scan_segment(lines[start].lstrip(), None)
+    except ValueError as e:
+        raise PfError(start + 1, str(e))
+    if continued:
+        raise PfError(start + 1, 'directive continued with "&": pFUnit 4 (funitproc) recognises a directive '
+                                 'only on one line and leaves a continued one untranslated; write it on one '
+                                 'line (put a long condition into a variable first)')
     if quote:
-        raise PfError(j + 1, 'unterminated character literal in directive')
-    return text, j
+        raise PfError(start + 1, 'unterminated character literal in directive')
+    return text, start
 
 
 def split_arguments(text, open_index, lineno):
@@ -310,6 +349,21 @@ def split_arguments(text, open_index, lineno):
     raise PfError(lineno, 'unbalanced parentheses in directive')
 
 
+def check_funitproc_length(line, lineno):
+    """Reject an assertion line that pFUnit's funitproc would translate into a line longer than
+    MAX_LINE: it writes "  call assert<name>(<arguments>, &" (pFUnitParser.py, AtAssert.action)."""
+    m = FUNITPROC_ASSERT_RE.match(line)
+    if not m:
+        return
+    args = m.group(2)
+    translated = '  call assert%s(%s%s&' % (m.group(1), args, ', ' if args.strip() else '')
+    if byte_len(translated) > MAX_LINE:
+        raise PfError(lineno, 'pFUnit 4 (funitproc) translates this directive into a line of %d characters, '
+                              'more than the %d gfortran accepts; shorten it by at least %d character(s) (e.g. the '
+                              'message, or an expression computed into a variable first)'
+                      % (byte_len(translated), MAX_LINE, byte_len(translated) - MAX_LINE))
+
+
 def translate_assertion(text, lineno, pf_name):
     """The Fortran call for a joined assertion directive."""
     m = re.match(r'@(\w+)\s*\(', text)
@@ -345,6 +399,43 @@ def translate_assertion(text, lineno, pf_name):
             expression = expression[:MAX_EXPRESSION - 3] + '...'
         call += ', expression=' + fortran_string(expression)
     return call + ')'
+
+
+def declared_names(line):
+    """The entity names of a declaration statement "type-spec[, attributes] :: a, b(3) = ...": the
+    leading name of each item after the first "::" outside brackets and literals ([] if none)."""
+    depth, quote, k, n = 0, None, 0, len(line)
+    items, start = None, None
+    while k < n:
+        c = line[k]
+        if quote:
+            if c == quote:
+                quote = None
+        elif c in '\'"':
+            quote = c
+        elif c == '!':
+            break
+        elif c in '([':
+            depth += 1
+        elif c in ')]':
+            depth -= 1
+        elif depth == 0 and items is None and line.startswith('::', k):
+            items, start = [], k + 2
+            k += 2
+            continue
+        elif depth == 0 and items is not None and c == ',':
+            items.append(line[start:k])
+            start = k + 1
+        k += 1
+    if items is None:
+        return []
+    items.append(line[start:k])
+    names = []
+    for item in items:
+        m = re.match(r'\s*([A-Za-z]\w*)', item)
+        if m:
+            names.append(m.group(1))
+    return names
 
 
 # --------------------------------------------------------------------------- one .pf file
@@ -413,6 +504,7 @@ class TestModule:
                 if low in ASSERTIONS:
                     try:
                         text, last = gather_directive(lines, i)
+                        check_funitproc_length(line, lineno)
                         call = translate_assertion(text, lineno, self.pf_name)
                     except PfError as e:
                         self.error(e.lineno, e.message)
@@ -456,11 +548,71 @@ class TestModule:
             i += 1
         if pending:
             self.error(pending[1], '@%s at the end of the file without a subroutine' % pending[0])
+        self.check_module_names(lines)
         if self.module is None:
             self.error(1, 'no "module %s" statement' % self.base)
         elif not uses_funit:
             self.error(1, 'module %s does not "use funit"' % self.module)
         return not self.errors
+
+    def check_module_names(self, lines):
+        """Module procedures, module variables and derived types named like a public name of
+        pFUnit's funit (FUNIT_PUBLIC_NAMES).  Internal procedures and local variables may reuse
+        those names (they hide the use-associated one).  Declarations are read from the first
+        line of each statement only."""
+        depth = 0               # open procedures
+        in_interface = in_type = False
+        in_module = False
+        in_contains = False     # after the module's "contains"
+        previous_continued = False
+        for i, line in enumerate(lines):
+            lineno = i + 1
+            stripped = line.strip()
+            continued = previous_continued
+            previous_continued = stripped.endswith('&') and not stripped.startswith('!')
+            if stripped == '' or stripped.startswith(('!', '@')) or continued:
+                continue
+            if not in_module:
+                in_module = bool(MODULE_RE.match(line))
+                continue
+            if in_interface:
+                in_interface = not END_INTERFACE_RE.match(line)
+                continue
+            if in_type:
+                in_type = not END_TYPE_RE.match(line)
+                continue
+            if INTERFACE_RE.match(line):
+                in_interface = True
+                continue
+            m = PROC_START_RE.match(line)
+            if m:
+                if depth == 0:
+                    self.check_name(lineno, m.group(2), 'module procedure')
+                depth += 1
+                continue
+            if depth > 0:
+                if PROC_END_RE.match(line):
+                    depth -= 1
+                continue
+            if in_contains:
+                continue
+            if CONTAINS_RE.match(line):
+                in_contains = True
+                continue
+            m = TYPE_DEF_RE.match(line)
+            if m and not re.match(r'\s*type\s*\(', line, re.IGNORECASE):
+                self.check_name(lineno, m.group(1), 'derived type')
+                in_type = True
+                continue
+            if NOT_DECLARATION_RE.match(line):
+                continue
+            for name in declared_names(line):
+                self.check_name(lineno, name, 'module variable')
+
+    def check_name(self, lineno, name, what):
+        if name.lower() in FUNIT_PUBLIC_NAMES:
+            self.error(lineno, '%s %s has the name of a public entity of pFUnit\'s module funit, which the '
+                               'test module uses: genuine pFUnit 4 rejects the clash; rename it' % (what, name))
 
     def register(self, kind, name, lineno):
         if kind == 'test':
