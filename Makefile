@@ -61,9 +61,23 @@ endif
 LIBRARY := $(LIBDIR)/libdualsig.a
 DRIVER  := $(BINDIR)/dualsig
 
-.PHONY: all lib run check check-lite check-asan check-layers deps bench bench-quick bench-plots bench-peers bench-deps plots stress clean distclean
-all: $(LIBRARY) $(DRIVER)
+# Test and driver support code (drivers/support/: the stress problems, the distorted-mesh
+# generators): not part of the library, so not in SRCS and never installed.  Built against
+# the library into its own archive and module folder, linked before libdualsig.a by
+# bin/dualsig_stress, bin/dualsig_bench and the test suite.  support_lib/support_mod name
+# them for a given build, e.g. $(call support_lib,debug) for the test suite.
+SUPPORT_SRCS := $(sort $(wildcard drivers/support/*.f90))
+support_lib = build/$(1)/libdualsig_support.a
+support_mod = build/$(1)/support-mod
+SUPPORT_LIB    := $(call support_lib,$(BUILD))
+SUPPORT_MODDIR := $(call support_mod,$(BUILD))
+SUPPORT_OBJS   := $(patsubst %.f90,$(BLD)/support/%.o,$(notdir $(SUPPORT_SRCS)))
+# (test/pfunit.mk links build/debug/libdualsig_support.a and reads build/debug/support-mod)
+
+.PHONY: all lib support run check check-lite check-asan check-layers deps bench bench-quick bench-plots bench-peers bench-deps plots stress clean distclean
+all: $(LIBRARY) $(DRIVER) $(SUPPORT_LIB)
 lib: $(LIBRARY)
+support: $(SUPPORT_LIB)
 
 $(sort $(BLD) $(MODDIR) $(BINDIR)):
 	@mkdir -p $@
@@ -89,6 +103,17 @@ $(LIBRARY): $(OBJS)
 	@mkdir -p $(@D)
 	@rm -f $@
 	ar rcs $@ $(OBJS)
+
+# The support archive: every support module needs the library's modules (built with it).
+$(sort $(BLD)/support $(SUPPORT_MODDIR)):
+	@mkdir -p $@
+
+$(BLD)/support/%.o: drivers/support/%.f90 $(LIBRARY) | $(BLD)/support $(SUPPORT_MODDIR)
+	$(FC) $(STD_FLAGS) $(FFLAGS) -J$(SUPPORT_MODDIR) -I$(SUPPORT_MODDIR) -I$(MODDIR) -c $< -o $@
+
+$(SUPPORT_LIB): $(SUPPORT_OBJS)
+	@rm -f $@
+	ar rcs $@ $(SUPPORT_OBJS)
 
 $(DRIVER): drivers/dualsig.f90 $(LIBRARY) | $(BINDIR)
 	$(FC) $(STD_FLAGS) $(FFLAGS) -I$(MODDIR) $< -o $@ $(LIBRARY) $(LIBS)
@@ -154,9 +179,9 @@ check-lite:
 	@mkdir -p $(TBLD)-$(TEST_BUILD)
 	@python3 test/pfunit_lite.py --out-dir $(TBLD)-$(TEST_BUILD) $(TEST_PF)
 	@$(FC) $(TEST_FFLAGS) -J$(TBLD)-$(TEST_BUILD) -I$(TBLD)-$(TEST_BUILD) \
-	   -Ibuild/$(TEST_BUILD)/mod test/lite/funit.f90 $(patsubst test/%.pf,$(TBLD)-$(TEST_BUILD)/%.F90,$(TEST_PF)) \
+	   -I$(call support_mod,$(TEST_BUILD)) -Ibuild/$(TEST_BUILD)/mod test/lite/funit.f90 $(patsubst test/%.pf,$(TBLD)-$(TEST_BUILD)/%.F90,$(TEST_PF)) \
 	   $(TBLD)-$(TEST_BUILD)/pfunit_lite_main.F90 -o $(TBLD)-$(TEST_BUILD)/dualsig_tests \
-	   build/$(TEST_BUILD)/libdualsig.a $(LIBS)
+	   $(call support_lib,$(TEST_BUILD)) build/$(TEST_BUILD)/libdualsig.a $(LIBS)
 	@DUALSIG_DRIVER=$(CURDIR)/build/$(TEST_BUILD)/dualsig DUALSIG_ROOT=$(CURDIR) ./$(TBLD)-$(TEST_BUILD)/dualsig_tests
 
 # The suite under AddressSanitizer, UndefinedBehaviorSanitizer and LeakSanitizer (with the
@@ -218,8 +243,8 @@ bench-peers:
 	@for q in $(PEER_QPS); do [ -f $${q}_A.mtx ] || { echo "dualsig: $${q}_A.mtx missing: run make bench first"; exit 1; }; done
 	@python3 bench/petsc_peers.py $(PEER_QPS) --csv out/bench_peers.csv $(PEER_OPTIONS)
 
-bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) | bin
-	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
+bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) $(SUPPORT_LIB) | bin
+	$(FC) $(STD_FLAGS) $(FFLAGS) -I$(SUPPORT_MODDIR) -Iinclude $< -o $@ $(SUPPORT_LIB) $(LIBRARY) $(LIBS)
 
 # ---------------------------------------------------------------- stress suite
 # make stress   the numerical stability stress cases (see doc/stress.md), 2-5 minutes;
@@ -231,8 +256,8 @@ stress: deps
 	@$(MAKE) -s bin/dualsig_stress
 	@./bin/dualsig_stress $(STRESS_OPTIONS)
 
-bin/dualsig_stress: drivers/dualsig_stress.f90 $(LIBRARY) | bin
-	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
+bin/dualsig_stress: drivers/dualsig_stress.f90 $(LIBRARY) $(SUPPORT_LIB) | bin
+	$(FC) $(STD_FLAGS) $(FFLAGS) -I$(SUPPORT_MODDIR) -Iinclude $< -o $@ $(SUPPORT_LIB) $(LIBRARY) $(LIBS)
 
 # ---------------------------------------------------------------- install
 # make install [PREFIX=/usr/local] [DESTDIR=]   the release library (built first), its module

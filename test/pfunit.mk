@@ -27,9 +27,9 @@ include $(PFUNIT_DIR)/include/PFUNIT.mk
 vpath %.pf $(sort $(dir $(TEST_PF)))
 
 # Set before make_pfunit_test: its driver rule expands $(FFLAGS) when the macro is evaluated.
-FFLAGS := $(TEST_FFLAGS) $(PFUNIT_EXTRA_FFLAGS) -I$(ROOT)/build/debug/mod
+FFLAGS := $(TEST_FFLAGS) $(PFUNIT_EXTRA_FFLAGS) -I$(ROOT)/build/debug/support-mod -I$(ROOT)/build/debug/mod
 dualsig_tests_TESTS := $(notdir $(TEST_PF))
-dualsig_tests_OTHER_LIBRARIES := $(ROOT)/build/debug/libdualsig.a $(LIBS)
+dualsig_tests_OTHER_LIBRARIES := $(ROOT)/build/debug/libdualsig_support.a $(ROOT)/build/debug/libdualsig.a $(LIBS)
 
 # pFUnit's macro has no rule to compile the generated sources.
 %.o: %.F90

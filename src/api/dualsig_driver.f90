@@ -613,7 +613,7 @@ contains
     !> fields and estimator contributions collected by dual_level_p1/p2 in vfields.
     subroutine vtk_level()
       integer :: i
-      if (scene%has_exact) vfields%u_exact = [(scene%u(mesh%xy(1, i), mesh%xy(2, i)), i=1, mesh%nnode)]
+      if (scene%has_exact) vfields%u_exact = [(scene%u%value(mesh%xy(1, i), mesh%xy(2, i)), i=1, mesh%nnode)]
       vfields%contact = vtk_contact_status(sys%kind, sys%bnd, u, contact_rel_tol)
       call vtk_write_level(vtk_level_path(cfg%output, level), mesh, level, h, u, vfields, st)
       vfields = vtk_fields_t()

@@ -238,7 +238,7 @@ subroutine dssign(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, io
   use, intrinsic :: iso_fortran_env, only: output_unit
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_kinds, only: dp, geom_rel_tol
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: scalar_field, function_field_t, function_field
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_h, mesh_diameter
   use dualsig_quadrature, only: tri_rule_t, tri_rule
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
@@ -304,7 +304,9 @@ subroutine dssign(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, io
   type(status_t) :: st
   integer :: i, j, t, p, a, b, lo, nbside, nu, na
   real(dp) :: area_tol
+  type(function_field_t) :: f                  !! the source fsrc as a field
 
+  f = function_field(fsrc)
   info = 0
   bounds = 0.0_dp
   q = 0.0_dp
@@ -471,7 +473,7 @@ subroutine dssign(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, io
 
   ! ---- primal problem
   load_rule = tri_rule(load_degree)
-  call primal_assemble(mesh, iprob, fsrc, load_rule, sys)
+  call primal_assemble(mesh, iprob, f, load_rule, sys)
   call primal_constraints(mesh, iprob, [merge(mark_gamma_u, 0, nu > 0)], [merge(mark_gamma_a, 0, na > 0)], &
                           sys%kind, sys%bnd, st)
   if (st%code /= DS_OK) then
@@ -705,7 +707,7 @@ contains
     dset%ordering = ordering
     ! Uzawa tolerance tied to the discretisation, as in the driver
     dset%tol = max(dual_tol, dual_tol_h2 * (h / mesh_diameter(mesh))**2)
-    call dual_p1_solve(mesh, fsrc, load_rule, dset, qv, dres, st_dual, u_primal=u)
+    call dual_p1_solve(mesh, f, load_rule, dset, qv, dres, st_dual, u_primal=u)
     if (.not. is_ok(st_dual)) then
       call failed('dual P1 solve', st_dual%msg)
       return
@@ -718,7 +720,7 @@ contains
       dres%iterations, ' iterations, residual ', dres%residual, ', constraints ', dres%nconstraints, &
       ', active ', dres%nactive
     bound_rule = tri_rule(bound_degree_p1)
-    call dual_p1_bounds(mesh, u, qv, fsrc, bound_rule, b1)
+    call dual_p1_bounds(mesh, u, qv, f, bound_rule, b1)
     bounds(1:3) = [b1%est, b1%energy_lo, b1%energy_hi]
     do tt = 1, ntri
       do k = 1, 3
@@ -745,7 +747,7 @@ contains
     dset%ordering = ordering
     dset%penalty = penalty
     dset%tol = max(dual_tol, dual_tol_h2 * (h / mesh_diameter(mesh))**2)
-    call dual_p2_solve(mesh, fsrc, is_gamma_a, minval(mesh%xy(1, :)), dset, field, dres, st_dual, u_primal=u)
+    call dual_p2_solve(mesh, f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, dres, st_dual, u_primal=u)
     if (.not. is_ok(st_dual)) then
       call failed('dual P2 solve', st_dual%msg)
       return
@@ -763,7 +765,7 @@ contains
       dres%iterations, ' iterations, divergence defect ', dres%defect, ', constraints ', dres%nconstraints, &
       ', active ', dres%nactive
     bound_rule = tri_rule(bound_degree_p2)
-    call dual_p2_bounds(mesh, u, field, fsrc, is_gamma_a, bound_rule, b2)
+    call dual_p2_bounds(mesh, u, field, f, is_gamma_a, bound_rule, b2)
     bounds(1:3) = [b2%est, b2%energy_lo, b2%energy_hi]
     do tt = 1, ntri
       do k = 1, 3
@@ -772,7 +774,7 @@ contains
         if (flipped(tt) .and. k > 1) kin = 5 - k
         bary = 0.0_dp
         bary(kin) = 1.0_dp
-        q(2 * k - 1:2 * k, tt) = dual_p2_lambda(field, mesh, fsrc, tt, bary)
+        q(2 * k - 1:2 * k, tt) = dual_p2_lambda(field, mesh, f, tt, bary)
       end do
     end do
   end subroutine dual_p2

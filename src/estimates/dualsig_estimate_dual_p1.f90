@@ -16,7 +16,7 @@
 !> added to the triangle that owns the edge) are returned for adaptivity and plots.
 module dualsig_estimate_dual_p1
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field, vector_field
+  use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_points_t, tri_points
   use dualsig_elements_p1, only: p1_gradients
@@ -40,7 +40,7 @@ contains
   subroutine dual_p1_bounds(mesh, u, q, f, rule, bnd, breaks)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:), q(:)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(dual_p1_bounds_t), intent(out) :: bnd
     real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
@@ -64,7 +64,7 @@ contains
       e2 = 0.0_dp
       tp = points(xy, rule, breaks)
       do k = 1, tp%n
-        fq = f(tp%p(1, k), tp%p(2, k))
+        fq = f%value(tp%p(1, k), tp%p(2, k))
         uq = dot_product(tp%bary(:, k), ue)
         qq = matmul(qe, tp%bary(:, k))
         e1 = e1 + tp%w(k) * sum((qq - gu)**2)
@@ -99,8 +99,8 @@ contains
   subroutine dual_p1_errors(mesh, q, f, u, grad_u, rule, err_q, err_div, err_qnorm, breaks)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: q(:)
-    procedure(scalar_field) :: f, u
-    procedure(vector_field) :: grad_u
+    class(field_t), intent(in) :: f, u
+    class(vector_field_t), intent(in) :: grad_u
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(out) :: err_q, err_div, err_qnorm
     real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
@@ -122,8 +122,8 @@ contains
       do k = 1, tp%n
         p = tp%p(:, k)
         qq = matmul(qe, tp%bary(:, k))
-        e1 = e1 + tp%w(k) * sum((qq - grad_u(p(1), p(2)))**2)
-        e2 = e2 + tp%w(k) * (f(p(1), p(2)) + divq - u(p(1), p(2)))**2
+        e1 = e1 + tp%w(k) * sum((qq - grad_u%value(p(1), p(2)))**2)
+        e2 = e2 + tp%w(k) * (f%value(p(1), p(2)) + divq - u%value(p(1), p(2)))**2
       end do
       err_q = err_q + e1
       err_div = err_div + e2

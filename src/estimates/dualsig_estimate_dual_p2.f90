@@ -13,7 +13,7 @@
 !> exactly, with the flux taken >= 0 at the edge ends (it is, up to rounding).
 module dualsig_estimate_dual_p2
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field, vector_field
+  use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_points_t, tri_points
   use dualsig_elements_p1, only: p1_gradients
@@ -39,7 +39,7 @@ contains
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:)
     type(dual_p2_field_t), intent(in) :: field
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     logical, intent(in) :: is_gamma_a(:)
     type(tri_rule_t), intent(in) :: rule
     type(dual_p2_bounds_t), intent(out) :: bnd
@@ -61,7 +61,7 @@ contains
         lam = dual_p2_lambda(field, mesh, f, t, tp%bary(:, k))
         e1 = e1 + tp%w(k) * sum((lam - gu)**2)
         bnd%energy_hi = bnd%energy_hi + tp%w(k) * sum(lam**2)
-        fu = fu + tp%w(k) * f(tp%p(1, k), tp%p(2, k)) * dot_product(tp%bary(:, k), ue)
+        fu = fu + tp%w(k) * f%value(tp%p(1, k), tp%p(2, k)) * dot_product(tp%bary(:, k), ue)
       end do
       uu = uu + area * sum(gu**2)
       bnd%est_elem(t) = e1
@@ -92,8 +92,8 @@ contains
   real(dp) function dual_p2_error(mesh, field, f, grad_u, rule) result(err)
     type(mesh_t), intent(in) :: mesh
     type(dual_p2_field_t), intent(in) :: field
-    procedure(scalar_field) :: f
-    procedure(vector_field) :: grad_u
+    class(field_t), intent(in) :: f
+    class(vector_field_t), intent(in) :: grad_u
     type(tri_rule_t), intent(in) :: rule
     real(dp) :: xy(2, 3)
     type(tri_points_t) :: tp
@@ -103,7 +103,7 @@ contains
       xy = mesh%xy(:, mesh%tri(:, t))
       tp = tri_points(xy, rule, field%pf%breaks(1:field%pf%nbreaks))
       do k = 1, tp%n
-        err = err + tp%w(k) * sum((grad_u(tp%p(1, k), tp%p(2, k)) - dual_p2_lambda(field, mesh, f, t, tp%bary(:, k)))**2)
+        err = err + tp%w(k) * sum((grad_u%value(tp%p(1, k), tp%p(2, k)) - dual_p2_lambda(field, mesh, f, t, tp%bary(:, k)))**2)
       end do
     end do
     err = sqrt(err)

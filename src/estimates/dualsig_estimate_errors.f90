@@ -2,7 +2,7 @@
 !> high-order quadrature rule on every triangle.
 module dualsig_estimate_errors
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field, vector_field
+  use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_elements_p1, only: p1_gradients
@@ -17,8 +17,8 @@ contains
   subroutine p1_error_norms(mesh, uh, u, grad_u, rule, err_l2, err_h1semi)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: uh(:)
-    procedure(scalar_field) :: u
-    procedure(vector_field) :: grad_u
+    class(field_t), intent(in) :: u
+    class(vector_field_t), intent(in) :: grad_u
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(out) :: err_l2, err_h1semi
     real(dp) :: xy(2, 3), grad(2, 3), area, p(2), gh(2), e0, e1, el0, el1, ue(3), d(2)
@@ -34,8 +34,8 @@ contains
       el1 = 0.0_dp
       do q = 1, rule%n
         p = matmul(xy, rule%bary(:, q))
-        el0 = el0 + rule%w(q) * (u(p(1), p(2)) - dot_product(rule%bary(:, q), ue))**2
-        d = grad_u(p(1), p(2)) - gh
+        el0 = el0 + rule%w(q) * (u%value(p(1), p(2)) - dot_product(rule%bary(:, q), ue))**2
+        d = grad_u%value(p(1), p(2)) - gh
         el1 = el1 + rule%w(q) * dot_product(d, d)
       end do
       e0 = e0 + area * el0
@@ -49,8 +49,8 @@ contains
   !> `full` (then ||u||_1^2, the energy of P1), by the quadrature `rule`.
   real(dp) function exact_energy(mesh, u, grad_u, rule, full) result(energy)
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: u
-    procedure(vector_field) :: grad_u
+    class(field_t), intent(in) :: u
+    class(vector_field_t), intent(in) :: grad_u
     type(tri_rule_t), intent(in) :: rule
     logical, intent(in) :: full
     real(dp) :: xy(2, 3), grad(2, 3), area, p(2), el
@@ -62,8 +62,8 @@ contains
       el = 0.0_dp
       do q = 1, rule%n
         p = matmul(xy, rule%bary(:, q))
-        el = el + rule%w(q) * sum(grad_u(p(1), p(2))**2)
-        if (full) el = el + rule%w(q) * u(p(1), p(2))**2
+        el = el + rule%w(q) * sum(grad_u%value(p(1), p(2))**2)
+        if (full) el = el + rule%w(q) * u%value(p(1), p(2))**2
       end do
       energy = energy + area * el
     end do

@@ -13,7 +13,7 @@
 !> dualsig_problem_dual_p1 for the transforms that turn q.nu >= 0 into simple bounds.
 module dualsig_assembly_dual_p1
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_elements_p1, only: p1_gradients, p1_element_mass
@@ -36,7 +36,7 @@ contains
   !> div q is constant on the triangle: div q = sum_a (g(1,a) q1(a) + g(2,a) q2(a)).
   subroutine dual_p1_element(xy, f, rule, ae, be)
     real(dp), intent(in) :: xy(2, 3)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(out) :: ae(6, 6), be(6)
     real(dp) :: grad(2, 3), area, me(3, 3), d(6), p(2), fint
@@ -61,7 +61,7 @@ contains
     fint = 0.0_dp
     do q = 1, rule%n
       p = matmul(xy, rule%bary(:, q))
-      fint = fint + rule%w(q) * f(p(1), p(2))
+      fint = fint + rule%w(q) * f%value(p(1), p(2))
     end do
     be = -area * fint * d
   end subroutine dual_p1_element
@@ -70,7 +70,7 @@ contains
   !> (2, 2, nnode) the result is T^T A T and T^T b for q(i) = transform(:,:,i) s(i).
   subroutine assemble_dual_p1(mesh, f, rule, a, b, transform)
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(csr_t), intent(out) :: a
     real(dp), intent(out) :: b(:)

@@ -4,7 +4,7 @@
 !> assembly is linear in the number of triangles; element contributions are summed.
 module dualsig_assembly_p1
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_elements_p1, only: p1_element_stiffness, p1_element_mass, p1_element_load
@@ -61,7 +61,7 @@ contains
   !> Load vector F(j) = (f, phi_j)_0 with the quadrature `rule` on every triangle.
   subroutine assemble_load(mesh, f, rule, load)
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(out) :: load(:)
     real(dp) :: fe(3), xy(2, 3)

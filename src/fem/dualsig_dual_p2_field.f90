@@ -4,7 +4,7 @@
 !> (Section 4).  Produced by dualsig_problem_dual_p2, read by the estimates and the output.
 module dualsig_dual_p2_field
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_elements_equilibrium, only: equilibrium_field
   use dualsig_particular_field, only: particular_field_t, lambda_f_at
@@ -25,7 +25,7 @@ contains
   function dual_p2_lambda(field, mesh, f, t, bary) result(v)
     type(dual_p2_field_t), intent(in) :: field
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     integer, intent(in) :: t
     real(dp), intent(in) :: bary(3)
     real(dp) :: v(2)

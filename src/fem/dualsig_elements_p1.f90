@@ -4,7 +4,7 @@
 !> vertices, listed counter-clockwise (positive area).
 module dualsig_elements_p1
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_quadrature, only: tri_rule_t
   implicit none
   private
@@ -55,7 +55,7 @@ contains
   !> (exact when f lambda_i is a polynomial of degree <= rule%degree).
   subroutine p1_element_load(xy, f, rule, fe)
     real(dp), intent(in) :: xy(2, 3)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(out) :: fe(3)
     real(dp) :: grad(2, 3), area, p(2), fval
@@ -64,7 +64,7 @@ contains
     fe = 0.0_dp
     do q = 1, rule%n
       p = matmul(xy, rule%bary(:, q))
-      fval = f(p(1), p(2))
+      fval = f%value(p(1), p(2))
       fe = fe + rule%w(q) * fval * rule%bary(:, q)
     end do
     fe = area * fe

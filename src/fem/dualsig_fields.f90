@@ -88,13 +88,14 @@ contains
     field%fn => fn
   end function function_vector_field
 
-  real(dp) function function_field_value(self, x, y) result(v)
+  ! recursive: fn may itself evaluate a function field (an F77 source wrapping a scene's f)
+  recursive real(dp) function function_field_value(self, x, y) result(v)
     class(function_field_t), intent(in) :: self
     real(dp), intent(in) :: x, y
     v = self%fn(x, y)
   end function function_field_value
 
-  function function_vector_field_value(self, x, y) result(v)
+  recursive function function_vector_field_value(self, x, y) result(v)
     class(function_vector_field_t), intent(in) :: self
     real(dp), intent(in) :: x, y
     real(dp) :: v(2)

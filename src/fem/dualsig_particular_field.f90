@@ -65,7 +65,7 @@ module dualsig_particular_field
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_MESH, &
                             DS_ERR_NUMERIC, DS_WARN_NOT_CONVERGED
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_elements_p1, only: p1_gradients
   implicit none
@@ -183,7 +183,7 @@ contains
   !> (x_start, y) and (x, y).  `converged` (optional) is .false. when the adaptive quadrature
   !> stopped at adapt_max_depth or adapt_max_panels.
   function lambda_bar_at(f, x_start, x, y, converged, breaks) result(v)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     real(dp), intent(in) :: x_start, x, y
     logical, intent(out), optional :: converged
     real(dp), intent(in), optional :: breaks(:)   !! abscissae of kinks of f (split points)
@@ -214,7 +214,7 @@ contains
   !> at a quadrature limit (the result is kept).
   subroutine particular_field_build(mesh, f, x_start, is_gamma_a, pf, st, breaks)
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     real(dp), intent(in) :: x_start
     logical, intent(in) :: is_gamma_a(:)
     type(particular_field_t), intent(out) :: pf
@@ -317,7 +317,7 @@ contains
   function lambda_omega_at(pf, mesh, f, t, x, y, converged) result(v)
     type(particular_field_t), intent(in) :: pf
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     integer, intent(in) :: t
     real(dp), intent(in) :: x, y
     logical, intent(out), optional :: converged
@@ -363,7 +363,7 @@ contains
   function lambda_f_at(pf, mesh, f, t, x, y, converged) result(v)
     type(particular_field_t), intent(in) :: pf
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     integer, intent(in) :: t
     real(dp), intent(in) :: x, y
     logical, intent(out), optional :: converged
@@ -379,7 +379,7 @@ contains
   !> lambda_bar_1 = -int_{x_start}^{x} f(t, y) dt, and an estimate err of its absolute error
   !> (including rounding); ok is set to .false. when a quadrature limit was reached.
   recursive subroutine lambda_bar_1(f, x_start, x, y, val, err, ok, nbreaks, breaks)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     real(dp), intent(in) :: x_start, x, y
     real(dp), intent(out) :: val, err
     logical, intent(inout) :: ok
@@ -417,7 +417,7 @@ contains
   subroutine omega_edge(pf, mesh, f, j, sigma, w, dw, ok)
     type(particular_field_t), intent(in) :: pf
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     integer, intent(in) :: j
     real(dp), intent(in) :: sigma
     real(dp), intent(out) :: w, dw
@@ -441,7 +441,7 @@ contains
   !> the start of the side for the edge kinds), and a bound `noise` of its absolute error
   !> (nonzero when it contains an inner integral).
   recursive subroutine integrand_eval(f, ig, s, v, noise, ok)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(integrand_t), intent(in) :: ig
     real(dp), intent(in) :: s
     real(dp), intent(out) :: v(2), noise
@@ -449,7 +449,7 @@ contains
     real(dp) :: r, p(2), lb1, err, g
     select case (ig%kind)
     case (INT_SOURCE_LINE)
-      v = [f(s, ig%y), 0.0_dp]
+      v = [f%value(s, ig%y), 0.0_dp]
       noise = 0.0_dp
     case default
       r = s / ig%length
@@ -471,7 +471,7 @@ contains
   !> Splitting at a kink keeps every piece smooth, so the adaptive rule needs no bisection
   !> cascade there.
   recursive subroutine split_integral(f, ig, lo, hi, scale_in, val, abs_int, err, ok)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(integrand_t), intent(in) :: ig
     real(dp), intent(in) :: lo, hi, scale_in
     real(dp), intent(out) :: val(2), abs_int, err
@@ -527,7 +527,7 @@ contains
   !> error estimates of the accepted panels plus their rounding floors (an estimate of the
   !> error of the result); ok is set to .false. when a depth or panel limit was hit.
   recursive subroutine adaptive_integral(f, ig, lo, hi, scale_in, val, abs_int, err, ok)
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(integrand_t), intent(in) :: ig
     real(dp), intent(in) :: lo, hi, scale_in
     real(dp), intent(out) :: val(2), abs_int, err

@@ -24,7 +24,7 @@
 !>   (T^T A T, T^T b, s_k >= 0), whose solution is feasible by construction.
 module dualsig_problem_dual_p1
   use dualsig_kinds, only: dp, i8
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_from_triplets
   use dualsig_quadrature, only: tri_rule_t
@@ -83,7 +83,7 @@ contains
   !> (preferred when both are given).
   subroutine dual_p1_solve(mesh, f, rule, settings, q, res, st, q_start, u_primal)
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(dual_p1_settings_t), intent(in) :: settings
     real(dp), allocatable, intent(out) :: q(:)

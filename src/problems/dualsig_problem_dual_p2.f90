@@ -24,7 +24,7 @@
 module dualsig_problem_dual_p2
   use dualsig_kinds, only: dp, i8
   use dualsig_clock, only: wall_seconds
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_matvec
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
@@ -117,7 +117,7 @@ contains
   !> which starts the active-set method near its solution.
   subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal)
     type(mesh_t), intent(in) :: mesh
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     logical, intent(in) :: is_gamma_a(:)
     real(dp), intent(in) :: x_start
     type(dual_p2_settings_t), intent(in) :: settings

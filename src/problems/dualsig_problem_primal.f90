@@ -6,7 +6,7 @@
 !>       of Gamma_a (the reading notes correct the print, which says Gamma_u twice).
 module dualsig_problem_primal
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: scalar_field
+  use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t
   use dualsig_quadrature, only: tri_rule_t
@@ -154,7 +154,7 @@ contains
   subroutine primal_assemble(mesh, problem, f, rule, sys)
     type(mesh_t), intent(in) :: mesh
     integer, intent(in) :: problem
-    procedure(scalar_field) :: f
+    class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(primal_system_t), intent(inout) :: sys
     sys%problem = problem

@@ -25,7 +25,7 @@
 !> differences of u and the Signorini conditions along the boundary.
 module dualsig_scenes
   use dualsig_kinds, only: dp, pi
-  use dualsig_fields, only: scalar_field, vector_field
+  use dualsig_fields, only: field_t, vector_field_t, function_field, function_vector_field
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   implicit none
@@ -52,9 +52,9 @@ module dualsig_scenes
     character(len=160) :: description = ''
     integer :: nbreaks = 0                      !! abscissae x where f has a kink (may be 0)
     real(dp) :: x_breaks(4) = 0.0_dp            !! used to split the line integrals of lambda_bar
-    procedure(scalar_field), pointer, nopass :: f => null()
-    procedure(scalar_field), pointer, nopass :: u => null()
-    procedure(vector_field), pointer, nopass :: grad_u => null()
+    class(field_t), allocatable :: f
+    class(field_t), allocatable :: u
+    class(vector_field_t), allocatable :: grad_u
   end type scene_t
 
 contains
@@ -74,9 +74,9 @@ contains
       scene%description = 'P1 on (0,1)^2, manufactured: contact for x<1/3, separation for x>1/3 on y=0'
       scene%nbreaks = 1
       scene%x_breaks(1) = c                     ! f is continuous with a kink at x = c
-      scene%f => p1_contact_f
-      scene%u => p1_contact_u
-      scene%grad_u => p1_contact_grad
+      allocate (scene%f, source=function_field(p1_contact_f))
+      allocate (scene%u, source=function_field(p1_contact_u))
+      allocate (scene%grad_u, source=function_vector_field(p1_contact_grad))
     case ('p2_contact')
       scene%problem = PROBLEM_P2
       scene%has_exact = .true.
@@ -86,27 +86,27 @@ contains
       scene%description = 'P2 on (0,1)^2, manufactured: Signorini on y=0 (contact x<1/3), u=0 elsewhere'
       scene%nbreaks = 1
       scene%x_breaks(1) = c
-      scene%f => p2_contact_f
-      scene%u => p2_contact_u
-      scene%grad_u => p2_contact_grad
+      allocate (scene%f, source=function_field(p2_contact_f))
+      allocate (scene%u, source=function_field(p2_contact_u))
+      allocate (scene%grad_u, source=function_vector_field(p2_contact_grad))
     case ('p1_lshape_load')
       scene%problem = PROBLEM_P1
       scene%gamma_a_markers(1:6) = [1, 2, 3, 4, 5, 6]
       scene%description = 'P1 on the L-shape, f = 4 - 10 (x^2 + y^2): contact set found by the solver'
-      scene%f => lshape_p1_f
+      allocate (scene%f, source=function_field(lshape_p1_f))
     case ('p2_lshape_load')
       scene%problem = PROBLEM_P2
       scene%gamma_a_markers(1:3) = [1, 2, 3]
       scene%gamma_u_markers(1:3) = [4, 5, 6]
       scene%description = 'P2 on the L-shape, f = 20 x + 5 sin(pi y): Signorini on the lower sides'
-      scene%f => lshape_p2_f
+      allocate (scene%f, source=function_field(lshape_p2_f))
     case ('p2_holed_load')
       scene%problem = PROBLEM_P2
       scene%gamma_u_markers(1:2) = [4, 8]
       scene%gamma_a_markers(1:6) = [1, 2, 3, 5, 6, 7]
       scene%description = 'P2 on the square with a square hole, f = 10 cos(2 pi x) cos(2 pi y): ' // &
         'u = 0 on the left side of each loop, Signorini elsewhere'
-      scene%f => holed_p2_f
+      allocate (scene%f, source=function_field(holed_p2_f))
     case default
       call set_error(st, DS_ERR_INPUT, 'unknown scene "' // trim(name) // '"; expected one of: ' &
                      // scene_names)
