@@ -155,6 +155,7 @@ ifdef PFUNIT_DIR
 # as check-lite runs them.
 PFUNIT_BLD := build/test-pfunit
 check: deps
+	@$(MAKE) check-layers
 	@$(MAKE) BUILD=debug all
 	@mkdir -p $(PFUNIT_BLD)
 	@$(MAKE) -C $(PFUNIT_BLD) -f $(CURDIR)/test/pfunit.mk ROOT=$(CURDIR) PFUNIT_DIR=$(abspath $(PFUNIT_DIR)) \
@@ -162,6 +163,7 @@ check: deps
 	@DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./$(PFUNIT_BLD)/dualsig_tests
 else
 check: deps
+	@$(MAKE) check-layers
 	@$(MAKE) BUILD=debug all
 	@$(MAKE) check-lite
 endif

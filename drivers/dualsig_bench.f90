@@ -47,6 +47,9 @@ program dualsig_bench
                                           assemble_equilibrium_global
   use dualsig_kinds, only: i8
   use dualsig_io_matrix_market, only: write_qp_matrix_market
+  use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
+                              analysis_start, analysis_next_level
+  use dualsig_status, only: is_ok
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -160,19 +163,16 @@ contains
   subroutine bench_large(scene_name, lmax, lmax_dual)
     character(len=*), intent(in) :: scene_name
     integer, intent(in) :: lmax, lmax_dual
-    type(active_set_settings_t) :: aset
-    type(active_set_result_t) :: ares
+    type(analysis_problem_t) :: pb
+    type(analysis_settings_t) :: aset_pipeline
+    type(analysis_t) :: an
+    type(level_result_t) :: res
     type(csr_t) :: ar, ad
     type(cholesky_t) :: chol
-    type(dual_p1_settings_t) :: d1set
     type(dual_p1_result_t) :: d1res
-    type(dual_p1_bounds_t) :: b1
-    type(dual_p2_settings_t) :: d2set
     type(dual_p2_result_t) :: d2res
-    type(dual_p2_field_t) :: field
-    real(dp), allocatable :: u(:), uf(:), q(:), qf(:), x(:), bd(:)
-    logical, allocatable :: is_gamma_a(:)
-    real(dp) :: t0, tp, tb, tbm, tbn, td, tdb, tdba, e0, e1, err, nlog(20), tlog(20, 3)
+    real(dp), allocatable :: u(:), x(:), bd(:)
+    real(dp) :: t0, tp, tb, tbm, tbn, td, tdb, tdba, err, err_lambda, nlog(20), tlog(20, 3)
     integer :: lcsv, i, p, nfit, ord
     integer, allocatable :: perm(:)
     integer(i8) :: nnz_amd, nnz_metis, nnz_nd
@@ -188,31 +188,44 @@ contains
       ' ordering+analyse+factorise+solve of the unconstrained matrix with the same ordering; amd = the same with AMD)'
     write (*, '(a)') '  lvl         N     solver   iters fact bord   seconds  baseline   ratio       error    residual' // &
       '   peak MB  nnzL(amd)  nnzL(metis) metis_s   amd_s ratio_amd   nnzL(nd)'
-    d1set%ordering = ORDERING_GEOMETRIC
-    d2set%ordering = ORDERING_GEOMETRIC
     call scene_lookup(scene_name, scene, st)
     call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
     nfit = 0
     dual_name = merge('active_set', 'augmented ', scene%problem == PROBLEM_P1)
+    ! the pipeline: grid sequencing, the active set with nested dissection from 1e4 unknowns,
+    ! the feasible dual with the solvers' own tolerance; the P2 bounds are not timed here
+    ! (bench_dual_p2 and the driver cover them), only the field and its error
+    allocate (pb%f, source=scene%f)
+    allocate (pb%u_exact, source=scene%u)
+    allocate (pb%grad_exact, source=scene%grad_u)
+    pb%kind = scene%problem
+    pb%mesh = mesh
+    pb%gamma_u = scene%gamma_u_markers
+    pb%gamma_a = scene%gamma_a_markers
+    pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+    aset_pipeline%levels = lmax
+    aset_pipeline%method = 'active_set'
+    aset_pipeline%max_iter = 100
+    aset_pipeline%ordering = ORDERING_GEOMETRIC
+    aset_pipeline%dual = lmax_dual >= first_level_reported
+    aset_pipeline%dual_tol_h2 = 0.0_dp
+    aset_pipeline%bounds = scene%problem == PROBLEM_P1
+    aset_pipeline%keep_fields = .true.
+    call analysis_start(an, pb, aset_pipeline, st)
     do level = 1, lmax
-      if (level > 1) then
-        call mesh_refine_uniform(mesh, finer, st)
-        allocate (uf(finer%nnode))
-        call mesh_prolongate_p1(mesh, finer, u, uf)
-        call move_alloc(uf, u)
-        if (allocated(q)) deallocate (q)
-        mesh = finer
-      else
-        allocate (u(mesh%nnode), source=0.0_dp)
+      call analysis_next_level(an, res, st)
+      if (.not. is_ok(st)) then
+        write (*, '(a,i0,a)') 'dualsig_bench: level ', level, ': ' // st%msg
+        exit
       end if
+      tp = res%primal_seconds
+      if (level < first_level_reported) cycle
+      ! the level's matrix again (untimed), for the baselines and the QP export
+      mesh = an%mesh
+      u = res%u
       call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
-      t0 = wall_seconds()
-      call geometric_ordering(mesh%xy, sys%a, aset%ordering, aset%perm, st)
-      call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st)
-      tp = wall_seconds() - t0
-      if (level < first_level_reported) cycle
       ! baseline: the same matrix with only the Dirichlet rows, one analyse+factorise+solve
       ar = sys%a
       do i = 1, ar%n
@@ -254,15 +267,14 @@ contains
         write (qp_name, '(a,i0)') 'out/qp_' // scene_name // '_l', level
         call write_qp_matrix_market(trim(qp_name), sys%a, sys%load, sys%kind, sys%bnd, u, st)
       end if
-      call p1_error_norms(mesh, u, scene%u, scene%grad_u, tri_rule(12), e0, e1)
-      err = e1
-      if (scene%problem == PROBLEM_P1) err = sqrt(e0**2 + e1**2)
+      err = res%err_energy
       write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,2i11,f8.2,f8.3,f8.2,i11)') level, mesh%nnode, &
-        'active_set', ares%iterations, ares%factorisations, ares%lowrank_solves, tp, tbn, tp / tbn, err, &
-        ares%kkt_residual, peak_memory_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
+        'active_set', res%primal_iters, res%primal_factorisations, res%primal_bordered, tp, tbn, tp / tbn, err, &
+        res%kkt_residual, peak_memory_mb(), nnz_amd, nnz_metis, tbm, tb, tp / tb, nnz_nd
       write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,2(",",i0),' // &
-        '3(",",es12.4),",",i0,3(",",es12.4))') scene_name, level, mesh%nnode, 'active_set', tp, ares%iterations, &
-        ares%factorisations, ares%lowrank_solves, tbn, tp / tbn, err, ares%kkt_residual, peak_memory_mb(), nnz_amd, nnz_metis, &
+        '3(",",es12.4),",",i0,3(",",es12.4))') scene_name, level, mesh%nnode, 'active_set', tp, res%primal_iters, &
+        res%primal_factorisations, res%primal_bordered, tbn, tp / tbn, err, res%kkt_residual, peak_memory_mb(), &
+        nnz_amd, nnz_metis, &
         tbm, tb, tp / tb, nnz_nd, fl_amd, fl_nd, fl_metis
       write (*, '(a,3es11.3,a,f6.3)') '       factor flops (CHOLMOD): amd, baseline ordering, metis =', fl_amd, fl_nd, &
         fl_metis, ';  baseline / amd =', fl_nd / fl_amd
@@ -289,21 +301,19 @@ contains
         tdb = wall_seconds() - t0
         call cholesky_free(chol)
         deallocate (bd)
-        t0 = wall_seconds()
-        call dual_p1_solve(mesh, scene%f, tri_rule(5), d1set, q, d1res, st, u_primal=u)
-        td = wall_seconds() - t0
-        call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(12), b1, scene%x_breaks(1:scene%nbreaks))
+        td = res%dual_seconds
+        d1res = res%dual_p1
         write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,30x,f8.3,f8.2)') level, 2 * mesh%nnode, 'dual_p1', &
-          d1res%iterations, d1res%factorisations, d1res%lowrank_solves, td, tdb, td / tdb, sqrt(b1%est), &
+          d1res%iterations, d1res%factorisations, d1res%lowrank_solves, td, tdb, td / tdb, sqrt(res%est), &
           d1res%residual, peak_memory_mb(), tdba, td / tdba
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
           '",0,0,0",2(",",es12.4),",0,0,0,0")') scene_name, level, 2 * mesh%nnode, 'dual_p1', td, d1res%iterations, &
-          d1res%factorisations, d1res%lowrank_solves, tdb, td / tdb, sqrt(b1%est), d1res%residual, peak_memory_mb(), tdba, td / tdba
+          d1res%factorisations, d1res%lowrank_solves, tdb, td / tdb, sqrt(res%est), d1res%residual, peak_memory_mb(), &
+          tdba, td / tdba
       else
-        is_gamma_a = mesh%bedge_marker == 1
-        t0 = wall_seconds()
-        call dual_p2_solve(mesh, scene%f, is_gamma_a, 0.0_dp, d2set, field, d2res, st, scene%x_breaks(1:1), u)
-        td = wall_seconds() - t0
+        td = res%dual_seconds
+        d2res = res%dual_p2
+        err_lambda = dual_p2_error(mesh, res%lambda, scene%f, scene%grad_u, tri_rule(8))
         block
           type(equilibrium_map_t) :: map
           real(dp), allocatable :: c(:,:,:), ae(:,:,:), dd(:,:)
@@ -322,7 +332,7 @@ contains
         call cholesky_free(chol)
         write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0,30x,f8.3,f8.2)') level, ad%n, 'dual_p2', &
           d2res%iterations, d2res%factorisations, 0, td, tdb, td / tdb, &
-          dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect_solver, peak_memory_mb(), tdba, td / tdba
+          err_lambda, d2res%defect_solver, peak_memory_mb(), tdba, td / tdba
         write (*, '(a,4f8.3,a)') '       profile of the dual solve (s): particular field, elements, loads, solver =', &
           d2res%seconds_particular, d2res%seconds_elements, d2res%seconds_loads, d2res%seconds_solver
         write (*, '(a,a,a,i0,a,2es10.2)') '       inner solver ', trim(d2res%inner), ': ', d2res%inner_iterations, &
@@ -330,7 +340,7 @@ contains
           d2res%defect_solver, d2res%defect
         write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
           '",0,0,0",2(",",es12.4),",0,0,0,0")') scene_name, level, ad%n, 'dual_p2', td, d2res%iterations, d2res%factorisations, &
-          0, tdb, td / tdb, dual_p2_error(mesh, field, scene%f, scene%grad_u, tri_rule(8)), d2res%defect_solver, peak_memory_mb(), &
+          0, tdb, td / tdb, err_lambda, d2res%defect_solver, peak_memory_mb(), &
           tdba, td / tdba
       end if
       if (level >= first_level_fit) tlog(nfit, 3) = log(td)
@@ -344,8 +354,7 @@ contains
       trim(dual_name), '): ', slope(pack(nlog(1:nfit), tlog(1:nfit, 3) /= 0.0_dp), pack(tlog(1:nfit, 3), &
       tlog(1:nfit, 3) /= 0.0_dp))
     write (*, '(a)') 'dualsig_bench: table written to out/bench_large_' // scene_name // '.csv'
-    deallocate (u)
-    if (allocated(q)) deallocate (q)
+    if (allocated(u)) deallocate (u)
   end subroutine bench_large
 
   !> Least-squares slope of y against x.

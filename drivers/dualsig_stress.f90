@@ -33,7 +33,7 @@ program dualsig_stress
   use dualsig_kinds, only: dp
   use dualsig_clock, only: wall_seconds, peak_memory_mb
   use dualsig_status, only: status_t, is_ok, DS_OK, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT, DS_ERR_NUMERIC
-  use dualsig_mesh, only: mesh_t, mesh_h
+  use dualsig_mesh, only: mesh_t
   use dualsig_mesh_generate, only: mesh_rectangle
   use dualsig_mesh_distort, only: mesh_corner_graded
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
@@ -50,13 +50,12 @@ program dualsig_stress
   use dualsig_problem_kinds, only: PROBLEM_P1
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_stress_problems, only: stress_problem, stress_scaled_scene
-  use dualsig_estimate_errors, only: p1_error_norms, exact_energy
+  use dualsig_estimate_errors, only: exact_energy
   use dualsig_assembly_dual_p1, only: assemble_dual_p1
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve, &
                                      dual_p1_constraint_rows
-  use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds
-  use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_field_t, dual_p2_solve
-  use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds
+  use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
+                              analysis_start, analysis_next_level
   use dualsig_io_files, only: temp_name, file_commit, ensure_parent_dir
   use dualsig_strings, only: itoa
   implicit none
@@ -73,7 +72,7 @@ program dualsig_stress
   !> Active-set changes allowed in the primal solves (the batch driver passes its max_iter,
   !> default 200000; the library default of 100 is reached on needle meshes)
   integer, parameter :: active_set_max_iter = 100000
-  integer, parameter :: exact_degree = 16, load_degree = 5, bound_degree_p2 = 12
+  integer, parameter :: exact_degree = 16, load_degree = 5
 
   type :: row_t
     character(len=28) :: name = ''
@@ -162,9 +161,10 @@ contains
   end subroutine usage
 
   ! ================================================================== one level of a case
-  !> Assemble and solve the primal problem of `scene` on `mesh` from the start u (zero
-  !> when not allocated), then errors, the dual analysis and the bounds when `dual`.
-  !> method: 'active_set' or 'psor' (omega, max_iter).  Every result is checked for NaN/Inf.
+  !> One level of the analysis pipeline (dualsig_analysis) for `scene` on `mesh` from the
+  !> start u (zero when not allocated; the solution on return): primal solve, errors,
+  !> and the dual analysis and bounds when `dual`.  method: 'active_set' (default) or
+  !> 'psor' (omega, max_iter).  Every result is checked for NaN/Inf.
   subroutine solve_level(mesh, scene, u, o, dual, method, omega, max_iter)
     type(mesh_t), intent(in) :: mesh
     type(scene_t), intent(in) :: scene
@@ -174,125 +174,112 @@ contains
     character(len=*), intent(in), optional :: method
     real(dp), intent(in), optional :: omega
     integer, intent(in), optional :: max_iter
-    type(primal_system_t) :: sys
+    type(analysis_settings_t) :: set
+    type(analysis_t) :: an
+    type(level_result_t) :: res
     type(status_t) :: st
-    type(psor_settings_t) :: pset
-    type(psor_result_t) :: pres
-    type(active_set_settings_t) :: aset
-    type(active_set_result_t) :: ares
-    integer, allocatable :: gu(:), ga(:)
-    real(dp) :: t0
-    gu = pack(scene%gamma_u_markers, scene%gamma_u_markers /= 0)
-    ga = pack(scene%gamma_a_markers, scene%gamma_a_markers /= 0)
-    o%h = mesh_h(mesh)
-    call primal_assemble(mesh, scene%problem, scene%f, tri_rule(load_degree), sys)
-    call primal_constraints(mesh, scene%problem, gu, ga, sys%kind, sys%bnd, st)
-    if (st%code /= 0) then
-      o%code = st%code
-      o%msg = st%msg
-      return
-    end if
+    set = stress_settings(1, dual, method, omega, max_iter)
     if (.not. allocated(u)) allocate (u(mesh%nnode), source=0.0_dp)
-    o%ndof = count(sys%kind /= BOUND_FIXED)
-    t0 = wall_seconds()
-    if (present(method)) then
-      if (method == 'psor') then
-        pset%omega = 1.0_dp
-        if (present(omega)) pset%omega = omega
-        pset%tol = tol
-        pset%max_iter = 1000000
-        if (present(max_iter)) pset%max_iter = max_iter
-        call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, pset, pres, st)
-        o%iters = pres%iterations
-        o%kkt = pres%kkt_residual
-        o%conv = pres%converged
-      end if
-    end if
-    if (.not. present(method) .or. (present(method) .and. method /= 'psor')) then
-      aset%max_iter = active_set_max_iter
-      if (present(max_iter)) aset%max_iter = max_iter
-      call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, u, aset, ares, st)
-      o%iters = ares%iterations
-      o%kkt = ares%kkt_residual
-      o%conv = ares%converged .and. st%code == DS_OK
-    end if
-    o%seconds = wall_seconds() - t0
-    o%code = st%code
-    if (allocated(st%msg)) o%msg = st%msg
-    o%finite = all_finite(u) .and. ieee_is_finite(o%kkt)
-    if (.not. is_ok(st)) return
-    o%nbounded = count(sys%kind == BOUND_LOWER)
-    o%ncontact = count(sys%kind == BOUND_LOWER .and. u <= sys%bnd)
-    call p1_error_norms(mesh, u, scene%u, scene%grad_u, tri_rule(exact_degree), o%err_l2, o%err)
-    if (scene%problem == PROBLEM_P1) o%err = sqrt(o%err_l2**2 + o%err**2)
-    o%energy = exact_energy(mesh, scene%u, scene%grad_u, tri_rule(exact_degree), scene%problem == PROBLEM_P1)
-    o%finite = o%finite .and. ieee_is_finite(o%err) .and. ieee_is_finite(o%energy)
-    if (dual) call dual_level(mesh, scene, u, ga, o)
+    call analysis_start(an, stress_analysis_problem(mesh, scene), set, st, u_start=u)
+    if (is_ok(st)) call analysis_next_level(an, res, st)
+    call level_from_result(an, scene, res, st, o)
+    if (allocated(res%u)) u = res%u
   end subroutine solve_level
 
-  !> The feasible dual (P1: active set; P2: augmented Lagrangian, warm-started from u) and
-  !> the bounds (6.13)/(6.14) or (6.26)/Theorem 6.4 for the primal iterate u.
-  subroutine dual_level(mesh, scene, u, ga, o)
+  !> The analysis problem of a stress case: the scene's load, exact solution and boundary parts.
+  function stress_analysis_problem(mesh, scene) result(pb)
     type(mesh_t), intent(in) :: mesh
     type(scene_t), intent(in) :: scene
-    real(dp), intent(in) :: u(:)
-    integer, intent(in) :: ga(:)
-    type(level_t), intent(inout) :: o
-    type(status_t) :: st
-    type(dual_p1_settings_t) :: d1set
-    type(dual_p1_result_t) :: d1res
-    type(dual_p1_bounds_t) :: b1
-    type(dual_p2_settings_t) :: d2set
-    type(dual_p2_result_t) :: d2res
-    type(dual_p2_field_t) :: field
-    type(dual_p2_bounds_t) :: b2
-    real(dp), allocatable :: q(:)
-    logical, allocatable :: is_gamma_a(:)
-    real(dp) :: t0
-    integer :: j
-    o%dual_ran = .true.
-    t0 = wall_seconds()
-    if (scene%problem == PROBLEM_P1) then
-      call dual_p1_solve(mesh, scene%f, tri_rule(load_degree), d1set, q, d1res, st, u_primal=u)
-      o%dual_code = st%code
-      if (.not. is_ok(st)) then
-        o%msg = st%msg
-        return
+    type(analysis_problem_t) :: pb
+    pb%kind = scene%problem
+    pb%mesh = mesh
+    pb%gamma_u = pack(scene%gamma_u_markers, scene%gamma_u_markers /= 0)
+    pb%gamma_a = pack(scene%gamma_a_markers, scene%gamma_a_markers /= 0)
+    allocate (pb%f, source=scene%f)
+    allocate (pb%u_exact, source=scene%u)
+    allocate (pb%grad_exact, source=scene%grad_u)
+    pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+  end function stress_analysis_problem
+
+  !> The analysis settings of the stress cases: the library solvers' own defaults (AMD,
+  !> dual tolerance 1e-10 on every level), KKT tolerance `tol`, the dual fields kept for the
+  !> finiteness checks.
+  function stress_settings(levels, dual, method, omega, max_iter) result(set)
+    integer, intent(in) :: levels
+    logical, intent(in) :: dual
+    character(len=*), intent(in), optional :: method
+    real(dp), intent(in), optional :: omega
+    integer, intent(in), optional :: max_iter
+    type(analysis_settings_t) :: set
+    set%levels = levels
+    set%tol = tol
+    set%method = 'active_set'
+    set%max_iter = active_set_max_iter
+    if (present(method)) then
+      if (method == 'psor') then
+        set%method = 'psor'
+        set%omega = 1.0_dp
+        if (present(omega)) set%omega = omega
+        set%max_iter = 1000000
       end if
-      o%dual_iters = d1res%iterations
-      o%dual_res = d1res%residual
-      o%dual_conv = d1res%converged .and. st%code == DS_OK
-      o%finite = o%finite .and. all_finite(q)
-      call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(exact_degree), b1, scene%x_breaks(1:scene%nbreaks))
-      o%est = b1%est
-      o%lo = b1%energy_lo
-      o%hi = b1%energy_hi
-      o%finite = o%finite .and. all_finite(b1%est_elem)
-    else
-      allocate (is_gamma_a(mesh%nbedge))
-      do j = 1, mesh%nbedge
-        is_gamma_a(j) = any(ga == mesh%bedge_marker(j))
-      end do
-      call dual_p2_solve(mesh, scene%f, is_gamma_a, minval(mesh%xy(1, :)), d2set, field, d2res, st, &
-                         scene%x_breaks(1:scene%nbreaks), u)
-      o%dual_code = st%code
-      if (.not. is_ok(st)) then
-        o%msg = st%msg
-        return
-      end if
-      o%dual_iters = d2res%iterations
-      o%dual_res = d2res%defect_solver     ! the solver's defect (the returned field is equilibrated)
-      o%dual_conv = d2res%converged .and. st%code == DS_OK
-      o%finite = o%finite .and. all_finite(reshape(field%beta, [size(field%beta)]))
-      call dual_p2_bounds(mesh, u, field, scene%f, is_gamma_a, tri_rule(bound_degree_p2), b2)
-      o%est = b2%est
-      o%lo = b2%energy_lo
-      o%hi = b2%energy_hi
-      o%finite = o%finite .and. all_finite(b2%est_elem)
     end if
+    if (present(max_iter)) set%max_iter = max_iter
+    set%dual = dual
+    set%dual_tol_h2 = 0.0_dp
+    set%keep_fields = .true.
+  end function stress_settings
+
+  !> What a level of the pipeline produced, in the stress suite's terms; st is the
+  !> level's status (an error of the primal or of the dual solve).
+  subroutine level_from_result(an, scene, res, st, o)
+    type(analysis_t), intent(in) :: an
+    type(scene_t), intent(in) :: scene
+    type(level_result_t), intent(in) :: res
+    type(status_t), intent(in) :: st
+    type(level_t), intent(out) :: o
+    logical :: primal_done
+    primal_done = allocated(res%u)
+    o%h = res%h
+    o%ndof = res%ndof
+    o%iters = res%primal_iters
+    o%kkt = res%kkt_residual
+    o%seconds = res%primal_seconds + res%dual_seconds
+    o%code = merge(DS_WARN_NOT_CONVERGED, DS_OK, res%primal_limit)
+    if (.not. primal_done .and. .not. is_ok(st)) o%code = st%code
+    if (allocated(st%msg)) o%msg = st%msg
+    o%conv = primal_done .and. .not. res%primal_limit
+    if (.not. primal_done) then
+      o%finite = ieee_is_finite(o%kkt)
+      return
+    end if
+    o%finite = all_finite(res%u) .and. ieee_is_finite(o%kkt)
+    o%nbounded = count(res%bound_kind == BOUND_LOWER)
+    o%ncontact = count(res%bound_kind == BOUND_LOWER .and. res%u <= res%bound)
+    o%err_l2 = res%err_l2
+    o%err = res%err_energy
+    o%energy = exact_energy(an%mesh, scene%u, scene%grad_u, tri_rule(exact_degree), scene%problem == PROBLEM_P1)
+    o%finite = o%finite .and. ieee_is_finite(o%err) .and. ieee_is_finite(o%energy)
+    if (.not. an%settings%dual) return
+    o%dual_ran = .true.
+    o%dual_code = merge(DS_WARN_NOT_CONVERGED, DS_OK, res%dual_limit)
+    if (.not. is_ok(st)) o%dual_code = st%code
+    if (.not. res%has_dual) return
+    o%dual_iters = res%dual_iters
+    if (scene%problem == PROBLEM_P1) then
+      o%dual_res = res%dual_p1%residual
+      o%dual_conv = res%dual_p1%converged .and. .not. res%dual_limit
+      o%finite = o%finite .and. all_finite(res%q)
+    else
+      o%dual_res = res%dual_p2%defect_solver     ! the solver's defect (the returned field is equilibrated)
+      o%dual_conv = res%dual_p2%converged .and. .not. res%dual_limit
+      o%finite = o%finite .and. all_finite(reshape(res%lambda%beta, [size(res%lambda%beta)]))
+    end if
+    o%est = res%est
+    o%lo = res%energy_lo
+    o%hi = res%energy_hi
+    o%finite = o%finite .and. all_finite(res%est_elem)
     o%finite = o%finite .and. ieee_is_finite(o%est) .and. ieee_is_finite(o%lo) .and. ieee_is_finite(o%hi)
-    o%seconds = o%seconds + (wall_seconds() - t0)
-  end subroutine dual_level
+  end subroutine level_from_result
 
   !> The guaranteed-bound expectations of a level: converged primal and dual, finite, est >= 0,
   !> est >= err^2, energy_lo <= (f,u) <= energy_hi (up to the quadrature slacks).
@@ -338,8 +325,9 @@ contains
     flush (output_unit)
   end subroutine push
 
-  !> Levels 1..nlev of `coarse` refined uniformly, grid sequencing (interpolated start);
-  !> all levels must satisfy the bounds; `o` returns the finest level, all_ok the verdict.
+  !> Levels 1..nlev of `coarse` refined uniformly by the pipeline, grid sequencing
+  !> (interpolated start); all levels must satisfy the bounds; `o` returns the finest level,
+  !> all_ok the verdict.
   subroutine run_levels(coarse, scene, nlev, o, all_ok, seconds, dual)
     type(mesh_t), intent(in) :: coarse
     type(scene_t), intent(in) :: scene
@@ -348,25 +336,19 @@ contains
     logical, intent(out) :: all_ok
     real(dp), intent(out) :: seconds
     logical, intent(in), optional :: dual
-    type(mesh_t) :: mesh, finer
+    type(analysis_t) :: an
+    type(level_result_t) :: res
     type(status_t) :: st
-    real(dp), allocatable :: u(:), uf(:)
     integer :: level
     logical :: with_dual
     with_dual = .true.
     if (present(dual)) with_dual = dual
-    mesh = coarse
     all_ok = .true.
     seconds = 0.0_dp
+    call analysis_start(an, stress_analysis_problem(coarse, scene), stress_settings(nlev, with_dual), st)
     do level = 1, nlev
-      if (level > 1) then
-        call mesh_refine_uniform(mesh, finer, st)
-        allocate (uf(finer%nnode))
-        call mesh_prolongate_p1(mesh, finer, u, uf)
-        call move_alloc(uf, u)
-        mesh = finer
-      end if
-      call solve_level(mesh, scene, u, o, with_dual)
+      if (is_ok(st)) call analysis_next_level(an, res, st)
+      call level_from_result(an, scene, res, st, o)
       seconds = seconds + o%seconds
       all_ok = all_ok .and. bounds_hold(o)
     end do

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Check the layering and the size rule of the library sources.
 
-Usage: check_layers.py [--max-lines N] SRC_DIR LAYER [LAYER ...]
+Usage: check_layers.py [--max-lines N] [--graph] SRC_DIR LAYER [LAYER ...]
 
 The layers are given lowest first (the Makefile's LAYERS).  Checks, each failure printed as
 `file:line: message`:
@@ -12,6 +12,7 @@ The layers are given lowest first (the Makefile's LAYERS).  Checks, each failure
      modules outside SRC_DIR, e.g. iso_c_binding, are not checked);
   4. no subroutine or function is longer than N lines (default 200), counted from its
      first line to its `end` line, comments included.
+With --graph, also print the layer graph: for each layer the earlier layers its modules use.
 Exit status 0 when everything holds, 1 otherwise; the last line says which.
 """
 import os
@@ -35,10 +36,17 @@ def code(line):
 
 
 def main(argv):
-    max_lines = 200
-    if len(argv) > 2 and argv[1] == "--max-lines":
-        max_lines = int(argv[2])
-        argv = argv[:1] + argv[3:]
+    max_lines, graph = 200, False
+    while len(argv) > 1 and argv[1].startswith("--"):
+        if argv[1] == "--max-lines" and len(argv) > 2:
+            max_lines = int(argv[2])
+            argv = argv[:1] + argv[3:]
+        elif argv[1] == "--graph":
+            graph = True
+            argv = argv[:1] + argv[2:]
+        else:
+            print(__doc__)
+            return 2
     if len(argv) < 3:
         print(__doc__)
         return 2
@@ -46,6 +54,7 @@ def main(argv):
     rank = {name: k for k, name in enumerate(layers)}
     errors = []
     module_layer, files = {}, []
+    edges = {name: set() for name in layers}
     for root, _, names in os.walk(src):
         for name in sorted(names):
             if not name.endswith((".f90", ".c")):
@@ -74,6 +83,8 @@ def main(argv):
             m = USE.match(text)
             if m and m.group(1) is None or (m and m.group(1).lower() == "non_intrinsic"):
                 used = m.group(2).lower()
+                if used in module_layer and module_layer[used] != layer:
+                    edges[layer].add(module_layer[used])
                 if used in module_layer and rank[module_layer[used]] > rank[layer]:
                     errors.append(f"{path}:{number}: layer '{layer}' uses {used} of the later layer "
                                   f"'{module_layer[used]}'")
@@ -95,6 +106,10 @@ def main(argv):
                 m = START.match(text)
                 if m and not re.match(r"^\s*end\b", text, re.I):
                     stack.append((m.group(2), number))
+    if graph:
+        for name in layers:
+            used = sorted(edges[name], key=rank.get)
+            print(f"{name:10s} uses {', '.join(used) if used else '(nothing)'}")
     for e in errors:
         print(e)
     if errors:

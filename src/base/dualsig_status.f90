@@ -1,5 +1,9 @@
 !> Error reporting for library code: a status code plus a message.
 !>
+!> One idiom everywhere: `is_ok(st)` (no error: success or a warning) decides whether to go
+!> on; `is_error(st)` and `is_warning(st)` tell the two apart; codes are never compared
+!> with literals.
+!>
 !> Library procedures never stop the program.  They take a `type(status_t), intent(out)`
 !> argument, set `code` (0 = success) and, on failure, a message that names the file,
 !> the item and what was expected.  The driver turns a non-zero code into an exit status.
@@ -7,14 +11,15 @@ module dualsig_status
   implicit none
   private
 
-  public :: status_t, set_error, set_warning, is_ok
-  public :: DS_OK, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT, DS_ERR_MESH, DS_ERR_IO, &
+  public :: status_t, set_error, set_warning, is_ok, is_error, is_warning
+  public :: DS_OK, DS_WARN_NOT_CONVERGED, DS_WARN_NOT_CERTIFIED, DS_ERR_INPUT, DS_ERR_MESH, DS_ERR_IO, &
             DS_ERR_NUMERIC, DS_ERR_LAPACK
 
   !> Status codes.  Codes > 0 and < 100 are warnings (the result exists but is
   !> not fully trustworthy); codes >= 100 are errors (no result).
   integer, parameter :: DS_OK = 0                   !! success
   integer, parameter :: DS_WARN_NOT_CONVERGED = 1   !! iteration limit reached
+  integer, parameter :: DS_WARN_NOT_CERTIFIED = 2   !! a bound was computed but is not guaranteed
   integer, parameter :: DS_ERR_INPUT = 100          !! invalid argument or namelist value
   integer, parameter :: DS_ERR_MESH = 101           !! malformed or unsupported mesh
   integer, parameter :: DS_ERR_IO = 102             !! file could not be read or written
@@ -52,4 +57,16 @@ contains
     type(status_t), intent(in) :: st
     is_ok = st%code < DS_ERR_INPUT
   end function is_ok
+
+  !> True when an error was recorded.
+  pure logical function is_error(st)
+    type(status_t), intent(in) :: st
+    is_error = st%code >= DS_ERR_INPUT
+  end function is_error
+
+  !> True when a warning (and no error) was recorded.
+  pure logical function is_warning(st)
+    type(status_t), intent(in) :: st
+    is_warning = st%code > DS_OK .and. st%code < DS_ERR_INPUT
+  end function is_warning
 end module dualsig_status

@@ -9,7 +9,7 @@
 !> list (unknown variable -> error naming it and the line); when the read fails the
 !> assignments are re-read one at a time to name the variable whose value is invalid.
 !> Values are then checked for range.  Every message names the file, the group, the
-!> line and what was expected.  See README.md for the variables and their defaults.
+!> line and what was expected.  See doc/user-guide.md for the variables and their defaults.
 module dualsig_io_config
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: ieee_exceptions, only: ieee_usual, ieee_get_halting_mode, ieee_set_halting_mode

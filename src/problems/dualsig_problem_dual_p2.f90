@@ -63,7 +63,7 @@ module dualsig_problem_dual_p2
     integer :: max_iter = 20000                !! Uzawa iterations
     real(dp) :: penalty = 0.0_dp               !! augmented Lagrangian r, 0 = automatic
     real(dp) :: defect_tol = 1.0e-13_dp        !! augmented: relative divergence defect
-    integer :: ordering = ORDERING_AMD          !! CHOLMOD ordering (AMD: cheapest analysis, see README "Performance")
+    integer :: ordering = ORDERING_AMD          !! CHOLMOD ordering (AMD: cheapest analysis, see doc/performance.md)
     character(len=16) :: inner = 'schur'        !! augmented: inner solver, 'schur' or 'active_set'
   end type dual_p2_settings_t
 

@@ -1,0 +1,484 @@
+!> The analysis pipeline: problem -> mesh levels -> primal solve -> dual solve -> bounds.
+!>
+!> One implementation behind every front end (the namelist driver, DSSIGN, the bench and
+!> the stress programs).  A caller describes the problem (`analysis_problem_t`: kind, coarse
+!> mesh, Gamma_u/Gamma_a markers, load, optional exact solution) and the run
+!> (`analysis_settings_t`), starts an analysis (`analysis_start`) and asks for one level at
+!> a time (`analysis_next_level`): the first call solves on the coarse mesh, every later
+!> call refines uniformly, carries the solution over (grid sequencing) and solves again.
+!> Each level returns a `level_result_t` (sizes, iterations, factorisations, timings, the
+!> bounds with their element indicators, the exact errors when u is known, the fields on
+!> request, and the warnings of the level).  Nothing is printed or written here.
+!>
+!> Guarantees as in the paper: for P1 est = E(q_h, u_h) of (6.13) >= ||u - u_h||_1^2 and
+!> energy_lo <= (f, u) <= energy_hi (6.14); for P2 est = E(lambda_h, u_h) of (6.26) >=
+!> |u - u_h|_1^2 and the bracket of Theorem 6.4, provided the dual field is admissible
+!> (`certified`: for P2 its divergence defect is at most `admissible_defect`).
+module dualsig_analysis
+  use dualsig_kinds, only: dp
+  use dualsig_clock, only: wall_seconds
+  use dualsig_status, only: status_t, set_error, is_ok, is_warning, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
+                            DS_WARN_NOT_CERTIFIED
+  use dualsig_strings, only: itoa
+  use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
+  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter
+  use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
+  use dualsig_sparse_direct, only: ORDERING_AMD
+  use dualsig_ordering_geometric, only: select_ordering
+  use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
+  use dualsig_qp_types, only: BOUND_FIXED
+  use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
+  use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
+  use dualsig_fields, only: field_t, vector_field_t
+  use dualsig_quadrature, only: tri_rule_t, tri_rule
+  use dualsig_dual_p2_field, only: dual_p2_field_t
+  use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
+  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
+  use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
+  use dualsig_estimate_errors, only: p1_error_norms
+  use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
+  use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_error
+  implicit none
+  private
+
+  public :: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t
+  public :: analysis_start, analysis_next_level, analysis_free
+  public :: load_degree, exact_degree, bound_degree_p1, bound_degree_p2, max_level_warnings
+
+  !> Degree of the quadrature of the load vectors (>= 5 as required; Radon's rule).
+  integer, parameter :: load_degree = 5
+  !> Degree of the quadrature of integrals of the exact solution.
+  integer, parameter :: exact_degree = 16
+  !> Degree of the quadrature of the P1 bounds (6.13), (6.14).
+  integer, parameter :: bound_degree_p1 = 16
+  !> Degree of the quadrature of the P2 bounds (lambda^h is not a polynomial; each point
+  !> costs a line integral of f).
+  integer, parameter :: bound_degree_p2 = 12
+  !> Lanczos settings of the automatic SOR parameter.
+  integer, parameter :: lanczos_max_steps = 400
+  real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
+  !> Warnings a level can carry (primal limit, dual limit, dual not admissible).
+  integer, parameter :: max_level_warnings = 3
+
+  !> What is solved: the problem, its coarse mesh, boundary parts and data.
+  type :: analysis_problem_t
+    integer :: kind = PROBLEM_P2                     !! PROBLEM_P1 or PROBLEM_P2
+    type(mesh_t) :: mesh                             !! coarse mesh, topology built, counter-clockwise
+    integer, allocatable :: gamma_u(:)               !! boundary markers of Gamma_u (0 = unused slot)
+    integer, allocatable :: gamma_a(:)               !! boundary markers of Gamma_a (0 = unused slot)
+    class(field_t), allocatable :: f                 !! the load
+    !> abscissae x = c where f has a kink (integrals are split there); left unallocated the
+    !> integrals are not split at all
+    real(dp), allocatable :: x_breaks(:)
+    class(field_t), allocatable :: u_exact           !! exact solution, for verification (optional)
+    class(vector_field_t), allocatable :: grad_exact !! its gradient (with u_exact)
+  end type analysis_problem_t
+
+  !> How it is solved.  Defaults are the namelist driver's.
+  type :: analysis_settings_t
+    integer :: levels = 1                         !! levels of uniform refinement, the coarse mesh is level 1
+    logical :: nested = .true.                    !! start each level from the prolongated solution
+    character(len=16) :: method = 'active_set'    !! primal solver: 'active_set' or 'psor'
+    real(dp) :: omega = 1.0_dp                    !! psor: relaxation
+    logical :: omega_auto = .false.               !! psor: omega from a Lanczos estimate per level
+    real(dp) :: tol = 1.0e-10_dp                  !! psor: relative KKT tolerance
+    integer :: max_iter = 200000                  !! psor sweeps / active-set changes
+    integer :: check_every = 10                   !! psor: sweeps between residuals
+    integer :: ordering = ORDERING_AMD            !! every CHOLMOD factorisation (ORDERING_* of dualsig_sparse_direct)
+    logical :: dual = .true.                      !! dual analysis
+    logical :: bounds = .true.                    !! with dual: the bounds from the dual field (off: the field only)
+    character(len=16) :: dual_method = 'default'  !! P1: active_set | uzawa; P2: augmented | uzawa; default: the first
+    real(dp) :: dual_rho = 0.0_dp                 !! Uzawa step, 0 = automatic
+    real(dp) :: dual_tol = 1.0e-10_dp             !! Uzawa tolerance, floor
+    real(dp) :: dual_tol_h2 = 1.0e-4_dp           !! Uzawa tolerance: max(dual_tol, dual_tol_h2 (h/diam)^2)
+    integer :: dual_max_iter = 20000              !! dual iterations
+    real(dp) :: dual_penalty = 0.0_dp             !! P2 augmented Lagrangian r, 0 = automatic
+    character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
+    !> Largest relative divergence defect of the P2 dual field for which est is certified.
+    real(dp) :: admissible_defect = 1.0e-10_dp
+    logical :: keep_fields = .false.              !! return the dual field in the level result
+  end type analysis_settings_t
+
+  !> What one level produced.  Columns not computed keep their defaults (has_* false).
+  type :: level_result_t
+    integer :: level = 0
+    integer :: nnode = 0, ntri = 0
+    integer :: ndof = 0                     !! unknowns not fixed by Gamma_u
+    real(dp) :: h = 0.0_dp                  !! longest side
+    ! primal
+    integer :: primal_iters = 0
+    integer :: primal_factorisations = 0    !! active set: CHOLMOD factorisations
+    integer :: primal_bordered = 0          !! active set: iterations done by bordering on the kept factor
+    real(dp) :: primal_seconds = 0.0_dp     !! wall time of the solve
+    real(dp) :: kkt_residual = 0.0_dp
+    logical :: primal_limit = .false.       !! the primal solver stopped at its iteration limit
+    real(dp), allocatable :: u(:)           !! u_h at the nodes
+    integer, allocatable :: bound_kind(:)   !! BOUND_* per node (dualsig_qp_types)
+    real(dp), allocatable :: bound(:)       !! bound value per node
+    ! exact errors (has_exact)
+    logical :: has_exact = .false.
+    real(dp) :: err_energy = 0.0_dp         !! energy norm of u - u_h: ||.||_1 (P1), |.|_1 (P2)
+    real(dp) :: err_l2 = 0.0_dp
+    ! dual analysis (has_dual)
+    logical :: has_dual = .false.
+    character(len=16) :: dual_method = ''
+    logical :: dual_limit = .false.         !! the dual solver stopped at its iteration limit
+    integer :: dual_iters = 0
+    real(dp) :: dual_seconds = 0.0_dp
+    real(dp) :: est = 0.0_dp                !! E of (6.13) / (6.26)
+    real(dp) :: energy_lo = 0.0_dp, energy_hi = 0.0_dp
+    real(dp), allocatable :: est_elem(:)    !! element contributions to est (sum = est)
+    logical :: certified = .false.          !! est and energy_hi are guaranteed bounds
+    real(dp) :: err_q = 0.0_dp              !! with has_exact: P1 ||q - grad u||, P2 ||grad u - lambda_h||
+    real(dp) :: err_div = 0.0_dp            !! with has_exact, P1: ||f + div q - u||
+    real(dp) :: err_q_norm = 0.0_dp         !! with has_exact, P1: (err_q^2 + err_div^2)^(1/2)
+    type(dual_p1_result_t) :: dual_p1       !! solver report (P1)
+    type(dual_p2_result_t) :: dual_p2       !! solver report (P2)
+    real(dp), allocatable :: q(:)           !! keep_fields, P1: q_h, (2, nnode) flattened
+    type(dual_p2_field_t) :: lambda         !! keep_fields, P2: lambda_h
+    ! warnings of this level (codes DS_WARN_*, messages without the level)
+    integer :: nwarnings = 0
+    type(status_t) :: warnings(max_level_warnings)
+  end type level_result_t
+
+  !> The state of an analysis between levels.
+  type :: analysis_t
+    type(analysis_problem_t) :: problem
+    type(analysis_settings_t) :: settings
+    type(mesh_t) :: mesh                    !! the mesh of the current level
+    integer :: level = 0                    !! levels done
+    real(dp), allocatable :: u(:)           !! u_h of the current level
+    real(dp), allocatable :: u_start(:)     !! start of level 1 (optional)
+    character(len=16) :: dual_method = ''   !! resolved dual method
+    type(tri_rule_t) :: load_rule, exact_rule, bound_rule_p1, bound_rule_p2
+  end type analysis_t
+
+contains
+
+  !> Check the settings against the problem and prepare the analysis; u_start (optional,
+  !> nnode of the coarse mesh) is the start of the first primal solve (zero otherwise).
+  subroutine analysis_start(an, problem, settings, st, u_start)
+    type(analysis_t), intent(out) :: an
+    type(analysis_problem_t), intent(in) :: problem
+    type(analysis_settings_t), intent(in) :: settings
+    type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: u_start(:)
+    character(len=:), allocatable :: method
+    if (problem%kind /= PROBLEM_P1 .and. problem%kind /= PROBLEM_P2) then
+      call set_error(st, DS_ERR_INPUT, 'analysis: problem kind ' // itoa(problem%kind) // ' (expected 1 = P1 or 2 = P2)')
+      return
+    end if
+    if (.not. allocated(problem%f)) then
+      call set_error(st, DS_ERR_INPUT, 'analysis: the problem has no load f')
+      return
+    end if
+    if (settings%levels < 1) then
+      call set_error(st, DS_ERR_INPUT, 'analysis: levels = ' // itoa(settings%levels) // ' (expected >= 1)')
+      return
+    end if
+    if (settings%method /= 'active_set' .and. settings%method /= 'psor') then
+      call set_error(st, DS_ERR_INPUT, "analysis: primal method '" // trim(settings%method) // &
+        "' (expected 'active_set' or 'psor')")
+      return
+    end if
+    method = trim(settings%dual_method)
+    if (method == 'default') method = trim(merge('active_set', 'augmented ', problem%kind == PROBLEM_P1))
+    if (settings%dual) then
+      if ((problem%kind == PROBLEM_P1 .and. method == 'augmented') .or. &
+          (problem%kind /= PROBLEM_P1 .and. method == 'active_set')) then
+        call set_error(st, DS_ERR_INPUT, "analysis: dual method '" // method // "' does not apply to problem P" // &
+          itoa(problem%kind) // '; P1: active_set or uzawa, P2: augmented or uzawa')
+        return
+      end if
+    end if
+    if (present(u_start)) then
+      if (size(u_start) /= problem%mesh%nnode) then
+        call set_error(st, DS_ERR_INPUT, 'analysis: u_start has ' // itoa(size(u_start)) // ' values for ' // &
+          itoa(problem%mesh%nnode) // ' nodes')
+        return
+      end if
+      an%u_start = u_start
+    end if
+    an%problem = problem
+    an%settings = settings
+    an%dual_method = method
+    an%mesh = problem%mesh
+    an%level = 0
+    an%load_rule = tri_rule(load_degree)
+    if (allocated(problem%u_exact)) an%exact_rule = tri_rule(exact_degree)
+    if (settings%dual) then
+      an%bound_rule_p1 = tri_rule(bound_degree_p1)
+      an%bound_rule_p2 = tri_rule(bound_degree_p2)
+    end if
+  end subroutine analysis_start
+
+  !> The next level: the coarse mesh on the first call, then one uniform refinement of the
+  !> previous level, its solution prolongated as the start when settings%nested.  An error
+  !> leaves res partly filled and the analysis at the previous level.
+  subroutine analysis_next_level(an, res, st)
+    type(analysis_t), intent(inout) :: an
+    type(level_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    type(mesh_t) :: finer
+    real(dp), allocatable :: u_next(:)
+    if (an%level > 0) then
+      call mesh_refine_uniform(an%mesh, finer, st)
+      if (.not. is_ok(st)) return
+      if (an%settings%nested) then
+        allocate (u_next(finer%nnode))
+        call mesh_prolongate_p1(an%mesh, finer, an%u, u_next)
+      end if
+      call move_mesh(finer, an%mesh)
+    else if (allocated(an%u_start)) then
+      u_next = an%u_start
+    end if
+    if (.not. allocated(u_next)) allocate (u_next(an%mesh%nnode), source=0.0_dp)
+    call move_alloc(u_next, an%u)
+    an%level = an%level + 1
+    res%level = an%level
+    call solve_level(an, res, st)
+  end subroutine analysis_next_level
+
+  !> Release what an analysis holds.
+  subroutine analysis_free(an)
+    type(analysis_t), intent(inout) :: an
+    an = analysis_t()
+  end subroutine analysis_free
+
+  !> mesh_to = mesh_from (the refinement replaces the level's mesh).
+  subroutine move_mesh(mesh_from, mesh_to)
+    type(mesh_t), intent(inout) :: mesh_from
+    type(mesh_t), intent(inout) :: mesh_to
+    mesh_to = mesh_from
+    mesh_from = mesh_t()
+  end subroutine move_mesh
+
+  !> One level on an%mesh from the start an%u: assemble, constraints, primal solve, exact
+  !> errors, dual solve and bounds.
+  subroutine solve_level(an, res, st)
+    type(analysis_t), intent(inout) :: an
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st
+    type(primal_system_t) :: sys
+    associate (mesh => an%mesh, pb => an%problem)
+      res%nnode = mesh%nnode
+      res%ntri = mesh%ntri
+      res%h = mesh_h(mesh)
+      call primal_assemble(mesh, pb%kind, pb%f, an%load_rule, sys)
+      call primal_constraints(mesh, pb%kind, pb%gamma_u, pb%gamma_a, sys%kind, sys%bnd, st, &
+                              every_loop_gamma_u=an%settings%dual .and. pb%kind /= PROBLEM_P1)
+      if (.not. is_ok(st)) return
+      res%ndof = count(sys%kind /= BOUND_FIXED)
+      call solve_primal(an, sys, res, st)
+      if (.not. is_ok(st)) return
+      res%u = an%u
+      call move_alloc(sys%kind, res%bound_kind)
+      call move_alloc(sys%bnd, res%bound)
+      if (allocated(pb%u_exact)) call primal_errors(an, res)
+      if (an%settings%dual) then
+        if (pb%kind == PROBLEM_P1) then
+          call dual_level_p1(an, res, st)
+        else
+          call dual_level_p2(an, res, st)
+        end if
+      end if
+    end associate
+  end subroutine solve_level
+
+  !> The primal QP (Section 2): the primal-dual active-set method (one CHOLMOD factor,
+  !> the ordering chosen by select_ordering) or projected SOR (omega given or from a
+  !> Lanczos estimate), from an%u; the result replaces an%u.
+  subroutine solve_primal(an, sys, res, st)
+    type(analysis_t), intent(inout) :: an
+    type(primal_system_t), intent(in) :: sys
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st
+    type(active_set_settings_t) :: aset
+    type(active_set_result_t) :: ares
+    type(psor_settings_t) :: pset
+    type(psor_result_t) :: pres
+    type(status_t) :: st_solve
+    real(dp) :: lmin, lmax
+    integer :: steps
+    res%primal_seconds = wall_seconds()
+    if (an%settings%method == 'active_set') then
+      aset%max_iter = an%settings%max_iter
+      call select_ordering(an%settings%ordering, an%mesh%xy, sys%a, aset%ordering, aset%perm, st)
+      if (.not. is_ok(st)) return
+      call active_set_solve(sys%a, sys%load, sys%kind, sys%bnd, an%u, aset, ares, st_solve)
+      res%primal_iters = ares%iterations
+      res%primal_factorisations = ares%factorisations
+      res%primal_bordered = ares%lowrank_solves
+      res%kkt_residual = ares%kkt_residual
+    else
+      pset%omega = an%settings%omega
+      pset%tol = an%settings%tol
+      pset%max_iter = an%settings%max_iter
+      pset%check_every = an%settings%check_every
+      if (an%settings%omega_auto) then
+        call jacobi_scaled_extremes(sys%a, sys%kind /= BOUND_FIXED, lanczos_max_steps, lanczos_rel_tol, &
+                                    lmin, lmax, steps, st)
+        if (.not. is_ok(st)) return
+        pset%omega = sor_omega_from_jacobi(lmin, lmax)
+      end if
+      call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, an%u, pset, pres, st_solve)
+      res%primal_iters = pres%iterations
+      res%kkt_residual = pres%kkt_residual
+    end if
+    res%primal_seconds = wall_seconds() - res%primal_seconds
+    res%primal_limit = is_warning(st_solve)
+    call take_status(st_solve, res, st)
+  end subroutine solve_primal
+
+  !> An error of a solver becomes the level's error; a warning is recorded in res.
+  subroutine take_status(st_step, res, st)
+    type(status_t), intent(in) :: st_step
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    if (.not. is_ok(st_step)) then
+      st = st_step
+    else if (st_step%code /= DS_OK) then
+      call add_warning(res, st_step%code, st_step%msg)
+    end if
+  end subroutine take_status
+
+  !> Record a warning of the level.
+  subroutine add_warning(res, code, msg)
+    type(level_result_t), intent(inout) :: res
+    integer, intent(in) :: code
+    character(len=*), intent(in) :: msg
+    if (res%nwarnings == max_level_warnings) return
+    res%nwarnings = res%nwarnings + 1
+    res%warnings(res%nwarnings)%code = code
+    res%warnings(res%nwarnings)%msg = msg
+  end subroutine add_warning
+
+  !> ||u - u_h|| in L2 and in the energy norm of the problem (full H1 norm for P1, H1
+  !> seminorm for P2), by quadrature of degree exact_degree.
+  subroutine primal_errors(an, res)
+    type(analysis_t), intent(in) :: an
+    type(level_result_t), intent(inout) :: res
+    real(dp) :: err_h1semi
+    call p1_error_norms(an%mesh, an%u, an%problem%u_exact, an%problem%grad_exact, an%exact_rule, &
+                        res%err_l2, err_h1semi)
+    if (an%problem%kind == PROBLEM_P1) then
+      res%err_energy = sqrt(res%err_l2**2 + err_h1semi**2)
+    else
+      res%err_energy = err_h1semi
+    end if
+    res%has_exact = .true.
+  end subroutine primal_errors
+
+  !> The Uzawa tolerance of the level, tied to the discretisation: no point in solving far
+  !> below h^2.
+  pure real(dp) function dual_tolerance(settings, h, diameter) result(tol)
+    type(analysis_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: h, diameter
+    tol = max(settings%dual_tol, settings%dual_tol_h2 * (h / diameter)**2)
+  end function dual_tolerance
+
+  !> P1 (Section 3): the feasible continuous field q_h (warm-started from u_h by
+  !> complementarity), the bounds (6.13), (6.14) and, with an exact solution, the dual errors.
+  subroutine dual_level_p1(an, res, st)
+    type(analysis_t), intent(inout) :: an
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    type(dual_p1_settings_t) :: dset
+    type(dual_p1_bounds_t) :: bounds
+    type(status_t) :: st_dual
+    real(dp), allocatable :: q(:)
+    dset%method = an%dual_method
+    dset%rho = an%settings%dual_rho
+    dset%max_iter = an%settings%dual_max_iter
+    dset%ordering = an%settings%ordering
+    dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
+    res%dual_method = an%dual_method
+    res%dual_seconds = wall_seconds()
+    call dual_p1_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
+    res%dual_seconds = wall_seconds() - res%dual_seconds
+    res%dual_limit = is_warning(st_dual)
+    call take_status(st_dual, res, st)
+    if (.not. is_ok(st)) return
+    res%has_dual = .true.
+    res%dual_iters = res%dual_p1%iterations
+    if (an%settings%keep_fields) res%q = q
+    if (.not. an%settings%bounds) return
+    associate (pb => an%problem)
+      if (allocated(pb%x_breaks)) then
+        call dual_p1_bounds(an%mesh, an%u, q, pb%f, an%bound_rule_p1, bounds, pb%x_breaks)
+      else
+        call dual_p1_bounds(an%mesh, an%u, q, pb%f, an%bound_rule_p1, bounds)
+      end if
+      if (res%has_exact) then
+        if (allocated(pb%x_breaks)) then
+          call dual_p1_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
+                              res%err_q_norm, pb%x_breaks)
+        else
+          call dual_p1_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
+                              res%err_q_norm)
+        end if
+      end if
+    end associate
+    res%est = bounds%est
+    res%energy_lo = bounds%energy_lo
+    res%energy_hi = bounds%energy_hi
+    call move_alloc(bounds%est_elem, res%est_elem)
+    res%certified = .true.
+  end subroutine dual_level_p1
+
+  !> P2 (Sections 4-6): the admissible field lambda_h = lambda^f + q_h by equilibrium
+  !> elements (warm-started from u_h), the bounds (6.26) and Theorem 6.4 and, with an exact
+  !> solution, ||grad u - lambda_h||.  A divergence defect above admissible_defect is a
+  !> warning (DS_WARN_NOT_CERTIFIED) and the level is not certified.
+  subroutine dual_level_p2(an, res, st)
+    type(analysis_t), intent(inout) :: an
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    type(dual_p2_settings_t) :: dset
+    type(dual_p2_bounds_t) :: bounds
+    type(dual_p2_field_t) :: field
+    type(status_t) :: st_dual
+    logical, allocatable :: is_gamma_a(:)
+    integer :: j
+    allocate (is_gamma_a(an%mesh%nbedge))
+    do j = 1, an%mesh%nbedge
+      is_gamma_a(j) = any(an%problem%gamma_a == an%mesh%bedge_marker(j))
+    end do
+    dset%method = an%dual_method
+    dset%rho = an%settings%dual_rho
+    dset%max_iter = an%settings%dual_max_iter
+    dset%ordering = an%settings%ordering
+    dset%penalty = an%settings%dual_penalty
+    dset%inner = an%settings%dual_inner
+    dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
+    res%dual_method = an%dual_method
+    associate (pb => an%problem, mesh => an%mesh)
+      res%dual_seconds = wall_seconds()
+      if (allocated(pb%x_breaks)) then
+        call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
+                           pb%x_breaks, an%u)
+      else
+        call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
+                           u_primal=an%u)
+      end if
+      res%dual_seconds = wall_seconds() - res%dual_seconds
+      res%dual_limit = is_warning(st_dual)
+      call take_status(st_dual, res, st)
+      if (.not. is_ok(st)) return
+      res%has_dual = .true.
+      res%dual_iters = res%dual_p2%iterations
+      res%certified = res%dual_p2%defect <= an%settings%admissible_defect
+      if (.not. res%certified) call add_warning(res, DS_WARN_NOT_CERTIFIED, &
+        'the dual field has a divergence defect above the admissible one: lambda_h is not admissible and est, ' // &
+        'energy_hi are NOT guaranteed bounds')
+      if (an%settings%keep_fields) res%lambda = field
+      if (.not. an%settings%bounds) return
+      call dual_p2_bounds(mesh, an%u, field, pb%f, is_gamma_a, an%bound_rule_p2, bounds)
+      if (res%has_exact) res%err_q = dual_p2_error(mesh, field, pb%f, pb%grad_exact, an%bound_rule_p2)
+    end associate
+    res%est = bounds%est
+    res%energy_lo = bounds%energy_lo
+    res%energy_hi = bounds%energy_hi
+    call move_alloc(bounds%est_elem, res%est_elem)
+  end subroutine dual_level_p2
+end module dualsig_analysis
