@@ -160,7 +160,8 @@ check: deps
 	@mkdir -p $(PFUNIT_BLD)
 	@$(MAKE) -C $(PFUNIT_BLD) -f $(CURDIR)/test/pfunit.mk ROOT=$(CURDIR) PFUNIT_DIR=$(abspath $(PFUNIT_DIR)) \
 	   FC='$(FC)' TEST_PF='$(abspath $(TEST_PF))' TEST_FFLAGS='$(TEST_FFLAGS)' LIBS='$(LIBS)' dualsig_tests
-	@DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./$(PFUNIT_BLD)/dualsig_tests
+	@scratch=$$(mktemp -d) && trap 'rm -rf "$$scratch"' EXIT && TMPDIR=$$scratch \
+	  DUALSIG_DRIVER=$(CURDIR)/build/debug/dualsig DUALSIG_ROOT=$(CURDIR) ./$(PFUNIT_BLD)/dualsig_tests
 else
 check: deps
 	@$(MAKE) check-layers
@@ -176,6 +177,8 @@ check-layers:
 	@python3 tools/check_layers.py --max-lines $(MAX_PROCEDURE_LINES) src $(LAYERS)
 
 # The fallback runner: test/pfunit_lite.py translates the .pf subset into Fortran.
+# Every run of a suite gets a scratch TMPDIR of its own (tests write their files there), so
+# that suites of several builds or checkouts can run at the same time.
 # TEST_BUILD names the library build the suite links (debug, or asan for check-asan).
 check-lite:
 	@mkdir -p $(TBLD)-$(TEST_BUILD)
@@ -184,7 +187,8 @@ check-lite:
 	   -I$(call support_mod,$(TEST_BUILD)) -Ibuild/$(TEST_BUILD)/mod test/lite/funit.f90 $(patsubst test/%.pf,$(TBLD)-$(TEST_BUILD)/%.F90,$(TEST_PF)) \
 	   $(TBLD)-$(TEST_BUILD)/pfunit_lite_main.F90 -o $(TBLD)-$(TEST_BUILD)/dualsig_tests \
 	   $(call support_lib,$(TEST_BUILD)) build/$(TEST_BUILD)/libdualsig.a $(LIBS)
-	@DUALSIG_DRIVER=$(CURDIR)/build/$(TEST_BUILD)/dualsig DUALSIG_ROOT=$(CURDIR) ./$(TBLD)-$(TEST_BUILD)/dualsig_tests
+	@scratch=$$(mktemp -d) && trap 'rm -rf "$$scratch"' EXIT && TMPDIR=$$scratch \
+	  DUALSIG_DRIVER=$(CURDIR)/build/$(TEST_BUILD)/dualsig DUALSIG_ROOT=$(CURDIR) ./$(TBLD)-$(TEST_BUILD)/dualsig_tests
 
 # The suite under AddressSanitizer, UndefinedBehaviorSanitizer and LeakSanitizer (with the
 # run-time checks and floating-point traps of the debug build).

@@ -36,8 +36,9 @@ module dualsig_analysis
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
   use dualsig_estimate_errors, only: p1_error_norms
-  use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
-  use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_error
+  use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds_load, dual_p1_errors
+  use dualsig_load_data, only: load_data_t, load_data_build
+  use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_bounds_load, dual_p2_error
   implicit none
   private
 
@@ -94,6 +95,9 @@ module dualsig_analysis
     integer :: dual_max_iter = 20000              !! dual iterations
     real(dp) :: dual_penalty = 0.0_dp             !! P2 augmented Lagrangian r, 0 = automatic
     character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
+    !> P2: the particular field lambda^f, 'polynomial' (every bound integral exact, f - f_T an
+    !> oscillation term) or 'stream' (the paper's lambda_bar + curl omega)
+    character(len=16) :: dual_particular = 'polynomial'
     !> Largest relative divergence defect of the P2 dual field for which est is certified.
     real(dp) :: admissible_defect = 1.0e-10_dp
     logical :: keep_fields = .false.              !! return the dual field in the level result
@@ -129,6 +133,8 @@ module dualsig_analysis
     real(dp) :: energy_lo = 0.0_dp, energy_hi = 0.0_dp
     real(dp), allocatable :: est_elem(:)    !! element contributions to est (sum = est)
     logical :: certified = .false.          !! est and energy_hi are guaranteed bounds
+    integer :: load_unresolved = 0          !! triangles where the load's integrals did not converge
+    real(dp) :: oscillation = 0.0_dp        !! P2: (sum_T ((h_T/pi) ||f - Pi_1 f||_T)^2)^(1/2), part of est
     real(dp) :: err_q = 0.0_dp              !! with has_exact: P1 ||q - grad u||, P2 ||grad u - lambda_h||
     real(dp) :: err_div = 0.0_dp            !! with has_exact, P1: ||f + div q - u||
     real(dp) :: err_q_norm = 0.0_dp         !! with has_exact, P1: (err_q^2 + err_div^2)^(1/2)
@@ -385,6 +391,7 @@ contains
     type(status_t), intent(inout) :: st
     type(dual_p1_settings_t) :: dset
     type(dual_p1_bounds_t) :: bounds
+    type(load_data_t) :: load
     type(status_t) :: st_dual
     real(dp), allocatable :: q(:)
     dset%method = an%dual_method
@@ -403,12 +410,10 @@ contains
     res%dual_iters = res%dual_p1%iterations
     if (an%settings%keep_fields) res%q = q
     if (.not. an%settings%bounds) return
+    call level_load_data(an, load, res, st)
+    if (.not. is_ok(st)) return
     associate (pb => an%problem)
-      if (allocated(pb%x_breaks)) then
-        call dual_p1_bounds(an%mesh, an%u, q, pb%f, an%bound_rule_p1, bounds, pb%x_breaks)
-      else
-        call dual_p1_bounds(an%mesh, an%u, q, pb%f, an%bound_rule_p1, bounds)
-      end if
+      call dual_p1_bounds_load(an%mesh, an%u, q, load, bounds)
       if (res%has_exact) then
         if (allocated(pb%x_breaks)) then
           call dual_p1_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
@@ -423,8 +428,28 @@ contains
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
     call move_alloc(bounds%est_elem, res%est_elem)
-    res%certified = .true.
+    res%certified = res%load_unresolved == 0
   end subroutine dual_level_p1
+
+  !> The load data of the level (dualsig_load_data: per-triangle mean, moments and
+  !> oscillation of f, integrated until converged); triangles where they did not converge
+  !> are counted in res (the bounds are then not certified) and reported as a warning.
+  subroutine level_load_data(an, load, res, st)
+    type(analysis_t), intent(in) :: an
+    type(load_data_t), intent(out) :: load
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    if (allocated(an%problem%x_breaks)) then
+      call load_data_build(an%mesh, an%problem%f, load, st, an%problem%x_breaks)
+    else
+      call load_data_build(an%mesh, an%problem%f, load, st)
+    end if
+    if (.not. is_ok(st)) return
+    res%load_unresolved = load%nunconverged
+    if (load%nunconverged > 0) call add_warning(res, DS_WARN_NOT_CERTIFIED, &
+      'the integrals of f did not converge on ' // itoa(load%nunconverged) // ' triangle(s) (f jumps or ' // &
+      'varies below the resolution of the cubature): the bounds are NOT certified')
+  end subroutine level_load_data
 
   !> P2 (Sections 4-6): the admissible field lambda_h = lambda^f + q_h by equilibrium
   !> elements (warm-started from u_h), the bounds (6.26) and Theorem 6.4 and, with an exact
@@ -437,6 +462,7 @@ contains
     type(dual_p2_settings_t) :: dset
     type(dual_p2_bounds_t) :: bounds
     type(dual_p2_field_t) :: field
+    type(load_data_t) :: load
     type(status_t) :: st_dual
     logical, allocatable :: is_gamma_a(:)
     integer :: j
@@ -451,15 +477,20 @@ contains
     dset%penalty = an%settings%dual_penalty
     dset%inner = an%settings%dual_inner
     dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
+    dset%particular = an%settings%dual_particular
     res%dual_method = an%dual_method
+    if (dset%particular == 'polynomial') then
+      call level_load_data(an, load, res, st)
+      if (.not. is_ok(st)) return
+    end if
     associate (pb => an%problem, mesh => an%mesh)
       res%dual_seconds = wall_seconds()
       if (allocated(pb%x_breaks)) then
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           pb%x_breaks, an%u)
+                           pb%x_breaks, an%u, load=load)
       else
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           u_primal=an%u)
+                           u_primal=an%u, load=load)
       end if
       res%dual_seconds = wall_seconds() - res%dual_seconds
       res%dual_limit = is_warning(st_dual)
@@ -471,9 +502,26 @@ contains
       if (.not. res%certified) call add_warning(res, DS_WARN_NOT_CERTIFIED, &
         'the dual field has a divergence defect above the admissible one: lambda_h is not admissible and est, ' // &
         'energy_hi are NOT guaranteed bounds')
+      if (.not. res%dual_p2%particular_converged) then
+        res%certified = .false.
+        call add_warning(res, DS_WARN_NOT_CERTIFIED, 'a line integral of the particular field did not converge: ' // &
+          'est, energy_hi are NOT guaranteed bounds')
+      end if
+      if (res%load_unresolved > 0) res%certified = .false.
+      if (.not. field%polynomial .and. res%certified) then
+        ! the paper's lambda^f: its integrals are quadratures of non-polynomials, not checked
+        res%certified = .false.
+        call add_warning(res, DS_WARN_NOT_CERTIFIED, 'the particular field is the paper''s lambda_bar + curl ' // &
+          'omega (&dual particular = ''stream''): the bounds rest on quadrature and are not certified')
+      end if
       if (an%settings%keep_fields) res%lambda = field
       if (.not. an%settings%bounds) return
-      call dual_p2_bounds(mesh, an%u, field, pb%f, is_gamma_a, an%bound_rule_p2, bounds)
+      if (field%polynomial) then
+        call dual_p2_bounds_load(mesh, an%u, field, load, is_gamma_a, bounds)
+        res%oscillation = bounds%oscillation
+      else
+        call dual_p2_bounds(mesh, an%u, field, pb%f, is_gamma_a, an%bound_rule_p2, bounds)
+      end if
       if (res%has_exact) res%err_q = dual_p2_error(mesh, field, pb%f, pb%grad_exact, an%bound_rule_p2)
     end associate
     res%est = bounds%est

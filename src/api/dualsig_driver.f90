@@ -52,9 +52,9 @@ module dualsig_driver
     '#level', 'h', '#ndof', '#primal_iters', 'primal_s', 'err_u_H1', 'rate_u_H1', &
     'err_u_L2', 'rate_u_L2', 'kkt_residual']
   !> Columns appended when the dual analysis runs.
-  character(len=16), parameter :: dual_columns(12) = [character(len=16) :: &
+  character(len=16), parameter :: dual_columns(13) = [character(len=16) :: &
     '#dual_iters', 'dual_s', 'err_q_Q', 'rate_q_Q', 'est', 'eff', 'energy_lo', 'energy_hi', &
-    'err_q_L2', 'rate_q_L2', 'err_lambda3', 'rate_lambda3']
+    'err_q_L2', 'rate_q_L2', 'err_lambda3', 'rate_lambda3', '#certified']
 
   !> A run as the driver sees it: the configuration, the problem built from it and what
   !> the header of the table needs.
@@ -65,7 +65,8 @@ module dualsig_driver
     type(analysis_problem_t) :: problem
     type(mesh_quality_t) :: q0                    !! quality of the coarse mesh
     logical :: by_names = .false.                 !! boundary parts given by Gmsh physical names
-    integer :: nonconverged = 0                   !! levels with a warning
+    integer :: nonconverged = 0                   !! warnings "iteration limit reached"
+    integer :: uncertified = 0                    !! levels whose bounds are not certified
   end type run_t
 
 contains
@@ -343,6 +344,7 @@ contains
     settings%dual_tol_h2 = cfg%dual_tol_h2
     settings%dual_max_iter = cfg%dual_max_iter
     settings%dual_inner = cfg%dual_inner
+    settings%dual_particular = cfg%dual_particular
     settings%keep_fields = cfg%vtk
   end subroutine settings_from_config
 
@@ -353,8 +355,9 @@ contains
     integer, intent(in) :: unit
     integer :: k
     do k = 1, res%nwarnings
-      run%nonconverged = run%nonconverged + 1
-      if (res%warnings(k)%code == DS_WARN_NOT_CERTIFIED) then
+      if (res%warnings(k)%code == DS_WARN_NOT_CONVERGED) run%nonconverged = run%nonconverged + 1
+      if (res%warnings(k)%code == DS_WARN_NOT_CERTIFIED .and. res%has_dual .and. &
+          res%dual_p2%defect > 0.0_dp .and. index(res%warnings(k)%msg, 'divergence defect') > 0) then
         write (unit, '(a,i0,a,es9.2,a)') 'warning: level ', res%level, ': the dual field has a divergence defect ', &
           res%dual_p2%defect, ' (relative): lambda_h is not admissible and est is NOT a guaranteed bound' // &
           ' (even after the exact equilibration of the solver''s field)'
@@ -362,6 +365,7 @@ contains
         write (unit, '(a)') 'warning: level ' // itoa(res%level) // ': ' // res%warnings(k)%msg
       end if
     end do
+    if (res%has_dual .and. .not. res%certified) run%uncertified = run%uncertified + 1
     if (.not. res%has_dual) return
     if (run%problem%kind == PROBLEM_P1) then
       associate (d => res%dual_p1)
@@ -409,6 +413,7 @@ contains
     call table_set(tab, 'est', res%est)
     call table_set(tab, 'energy_lo', res%energy_lo)
     call table_set(tab, 'energy_hi', res%energy_hi)
+    call table_set(tab, 'certified', merge(1.0_dp, 0.0_dp, res%certified))
     if (res%has_exact) then
       if (kind == PROBLEM_P1) then
         ! ||q - grad u||, ||f + div q - u|| and their combination
@@ -511,6 +516,14 @@ contains
             '||grad u - lambda_h||_0; energy_lo <= |u|_1^2 = (f,u) <= energy_hi (Theorem 6.4)'
         end if
         header = [character(len=300) :: header, line]
+        line = 'certified = 1: est, energy_lo and energy_hi are guaranteed for the given f (f enters only through ' // &
+          'its per-triangle integrals, converged to 1e-12; other integrals exact); 0: not guaranteed (see warnings)'
+        header = [character(len=300) :: header, line]
+        if (scene%problem /= PROBLEM_P1 .and. cfg%dual_particular == 'polynomial') then
+          line = 'lambda_h piecewise quadratic with div lambda_h = -Pi_1 f (L2 projection onto linears on each T); ' // &
+            'f - Pi_1 f enters est and energy_hi as (h_T/pi) ||f - Pi_1 f||_T per triangle (Payne-Weinberger)'
+          header = [character(len=300) :: header, line]
+        end if
         if (scene%has_exact) then
           line = 'exact energy (f, u) = ' // rtoa(exact_energy(mesh, scene%u, scene%grad_u, tri_rule(exact_degree), &
             scene%problem == PROBLEM_P1))
@@ -527,7 +540,12 @@ contains
       end if
       header = [header, config_echo(resolved)]
       if (run%nonconverged > 0) then
-        write (line, '(a,i0,a)') 'WARNING: ', run%nonconverged, ' level(s) stopped at max_iter (see kkt_residual)'
+        write (line, '(a,i0,a)') 'WARNING: ', run%nonconverged, ' solve(s) stopped at max_iter (see kkt_residual)'
+        header = [header, line]
+      end if
+      if (run%uncertified > 0) then
+        write (line, '(a,i0,a)') 'WARNING: ', run%uncertified, ' level(s) with bounds that are NOT certified ' // &
+          '(column certified = 0; see the warnings of the run)'
         header = [header, line]
       end if
     end associate
@@ -600,7 +618,9 @@ contains
       if (cfg%vtk) write (unit, '(a)') 'dualsig: ParaView files written: ' // trim(cfg%output) // &
         '.pvd and ' // itoa(cfg%levels) // ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu'
       if (run%nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &
-        itoa(run%nonconverged) // ' level(s) of run "' // trim(cfg%title) // '" did not converge')
+        itoa(run%nonconverged) // ' solve(s) of run "' // trim(cfg%title) // '" did not converge')
+      if (run%uncertified > 0) call set_warning(st, DS_WARN_NOT_CERTIFIED, &
+        itoa(run%uncertified) // ' level(s) of run "' // trim(cfg%title) // '" have bounds that are NOT certified')
     end associate
   end subroutine write_run_files
 

@@ -235,13 +235,9 @@ end subroutine dsbqp
 !> factorisation, non-finite values, unsupported geometry; Q and BOUNDS are zero);
 !> -k argument k is invalid (U is then unchanged, Q and BOUNDS are zero).
 subroutine dssign(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, iopt, ropt, u, q, bounds, info)
-  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_kinds, only: dp
   use dualsig_fields, only: scalar_field
-  use dualsig_mesh, only: mesh_t
-  use dualsig_strings, only: itoa
-  use dualsig_f77_adapter, only: dssign_options_t, dssign_output_options, dssign_read_options, dssign_mesh, &
-                                 dssign_analyse, fail_arg
+  use dualsig_f77_adapter, only: dssign_run
   implicit none
   integer, intent(in) :: iprob                 !! 1 (P1) or 2 (P2)
   integer, intent(in) :: nnode                 !! number of nodes (>= 3)
@@ -258,40 +254,38 @@ subroutine dssign(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, io
   real(dp), intent(out) :: q(6, ntri)          !! dual field at the vertices
   real(dp), intent(out) :: bounds(4)           !! E, energy_lo, energy_hi, reserved (0)
   integer, intent(out) :: info                 !! status, see above
-  type(dssign_options_t) :: opt
-  type(mesh_t) :: mesh
-  logical, allocatable :: flipped(:)
-  character(len=:), allocatable :: msg
-  integer :: arg, i
-
-  info = 0
-  bounds = 0.0_dp
-  q = 0.0_dp
-  call dssign_output_options(iopt, opt)
-  ! ---- arguments, in order: 1-8 (mesh), 9 (FSRC at the nodes), 10-11 (options), 12 (start)
-  call dssign_mesh(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, mesh, flipped, arg, msg)
-  if (arg /= 0) then
-    call fail_arg(opt, info, arg, msg)
-    return
-  end if
-  do i = 1, nnode
-    if (.not. ieee_is_finite(fsrc(xy(1, i), xy(2, i)))) then
-      call fail_arg(opt, info, 9, 'FSRC is not finite at node ' // itoa(i))
-      return
-    end if
-  end do
-  call dssign_read_options(iopt, ropt, opt, arg, msg)
-  if (arg /= 0) then
-    call fail_arg(opt, info, arg, msg)
-    return
-  end if
-  if (opt%start_from_u .and. .not. all(ieee_is_finite(u))) then
-    call fail_arg(opt, info, 12, 'IOPT(9) = 1 but the start U is not finite')
-    return
-  end if
-  call dssign_analyse(iprob, mesh, fsrc, opt, itri, flipped, u, q, bounds, info)
-  if (info < 0 .or. info == 8) then
-    q = 0.0_dp
-    bounds = 0.0_dp
-  end if
+  call dssign_run(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, iopt, ropt, u, q, bounds, info)
 end subroutine dssign
+
+!> DSSIGNB: DSSIGN for a source with known break lines: NBREAK (0 <= NBREAK <= 16) vertical
+!> lines x = XBREAK(k) along which FSRC may jump or have a kink.  The integrals of f are
+!> split there, so that a piecewise smooth f is integrated to full accuracy and the bounds
+!> are certified (with DSSIGN, the integrals of such an f do not converge across the break
+!> and INFO has the bit 4).  Arguments as DSSIGN; NBREAK is argument 10, XBREAK 11, and the
+!> later arguments are numbered 12 (IOPT) to 18 (INFO) in INFO = -k.
+subroutine dssignb(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, nbreak, xbreak, iopt, ropt, u, q, &
+                   bounds, info)
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: scalar_field
+  use dualsig_f77_adapter, only: dssign_run
+  implicit none
+  integer, intent(in) :: iprob                 !! 1 (P1) or 2 (P2)
+  integer, intent(in) :: nnode                 !! number of nodes (>= 3)
+  real(dp), intent(in) :: xy(2, nnode)         !! node coordinates
+  integer, intent(in) :: ntri                  !! number of triangles (>= 1)
+  integer, intent(in) :: itri(3, ntri)         !! vertices of each triangle
+  integer, intent(in) :: nbedge                !! number of listed boundary sides (>= 0)
+  integer, intent(in) :: ibedge(2, nbedge)     !! end nodes of each boundary side
+  integer, intent(in) :: ibmark(nbedge)        !! 1 = Gamma_u, 2 = Gamma_a
+  procedure(scalar_field) :: fsrc              !! source f(x, y)
+  integer, intent(in) :: nbreak                !! number of break lines (0..16)
+  real(dp), intent(in) :: xbreak(*)            !! their abscissae, NBREAK of them
+  integer, intent(in) :: iopt(10)              !! integer options (0 = default)
+  real(dp), intent(in) :: ropt(10)             !! real options (0 = default)
+  real(dp), intent(inout) :: u(nnode)          !! primal solution (start if IOPT(9) = 1)
+  real(dp), intent(out) :: q(6, ntri)          !! dual field at the vertices
+  real(dp), intent(out) :: bounds(4)           !! E, energy_lo, energy_hi, oscillation part of E
+  integer, intent(out) :: info                 !! status, see DSSIGN
+  call dssign_run(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, iopt, ropt, u, q, bounds, info, &
+                  nbreak, xbreak)
+end subroutine dssignb

@@ -22,8 +22,7 @@ module dualsig_f77_adapter
   implicit none
   private
 
-  public :: dssign_options_t, dssign_output_options, dssign_read_options, dssign_mesh, dssign_analyse, &
-            dssign_print, fail_arg
+  public :: dssign_run
   public :: info_primal_limit, info_dual_limit, info_not_admissible, info_failed
 
   ! Defaults of the option slots (the driver's defaults, dualsig_io_config).
@@ -37,6 +36,8 @@ module dualsig_f77_adapter
   real(dp), parameter :: default_dual_tol_h2 = 1.0e-4_dp  !! ROPT(4)
   real(dp), parameter :: default_admissible = 1.0e-10_dp  !! ROPT(7), as dualsig_analysis
   integer, parameter :: dual_off = 3                      !! IOPT(3) value: no dual analysis
+  !> Break lines DSSIGNB accepts at most.
+  integer, parameter :: max_breaks = 16
   ! Boundary markers of IBMARK.
   integer, parameter :: mark_gamma_u = 1, mark_gamma_a = 2
   ! INFO values > 0.
@@ -69,6 +70,71 @@ module dualsig_f77_adapter
   end type side_table_t
 
 contains
+
+  !> DSSIGN (and, with nbreak/xbreak, DSSIGNB): the arguments checked in order, INFO = -k
+  !> for the first bad one (k counted in DSSIGN's argument list; DSSIGNB's NBREAK and
+  !> XBREAK are 10 and 11 and shift the later ones by two), then one level of the analysis.
+  subroutine dssign_run(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, fsrc, iopt, ropt, u, q, bounds, info, &
+                        nbreak, xbreak)
+    integer, intent(in) :: iprob, nnode, ntri, nbedge
+    real(dp), intent(in) :: xy(2, nnode)
+    integer, intent(in) :: itri(3, ntri), ibedge(2, nbedge), ibmark(nbedge)
+    procedure(scalar_field) :: fsrc
+    integer, intent(in) :: iopt(10)
+    real(dp), intent(in) :: ropt(10)
+    real(dp), intent(inout) :: u(nnode)
+    real(dp), intent(out) :: q(6, ntri), bounds(4)
+    integer, intent(out) :: info
+    integer, intent(in), optional :: nbreak
+    real(dp), intent(in), optional :: xbreak(*)
+    type(dssign_options_t) :: opt
+    type(mesh_t) :: mesh
+    logical, allocatable :: flipped(:)
+    character(len=:), allocatable :: msg
+    real(dp), allocatable :: breaks(:)
+    integer :: arg, i, shift
+    info = 0
+    bounds = 0.0_dp
+    q = 0.0_dp
+    shift = merge(2, 0, present(nbreak))
+    call dssign_output_options(iopt, opt)
+    call dssign_mesh(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, mesh, flipped, arg, msg)
+    if (arg /= 0) then
+      call fail_arg(opt, info, arg, msg)
+      return
+    end if
+    do i = 1, nnode
+      if (.not. ieee_is_finite(fsrc(xy(1, i), xy(2, i)))) then
+        call fail_arg(opt, info, 9, 'FSRC is not finite at node ' // itoa(i))
+        return
+      end if
+    end do
+    if (present(nbreak)) then
+      if (nbreak < 0 .or. nbreak > max_breaks) then
+        call fail_arg(opt, info, 10, 'NBREAK = ' // itoa(nbreak) // ' (expected 0..' // itoa(max_breaks) // ')')
+        return
+      end if
+      breaks = xbreak(1:nbreak)
+      if (.not. all(ieee_is_finite(breaks))) then
+        call fail_arg(opt, info, 11, 'XBREAK has a value that is not finite')
+        return
+      end if
+    end if
+    call dssign_read_options(iopt, ropt, opt, arg, msg)
+    if (arg /= 0) then
+      call fail_arg(opt, info, arg + shift, msg)
+      return
+    end if
+    if (opt%start_from_u .and. .not. all(ieee_is_finite(u))) then
+      call fail_arg(opt, info, 12 + shift, 'IOPT(9) = 1 but the start U is not finite')
+      return
+    end if
+    call dssign_analyse(iprob, mesh, fsrc, opt, itri, flipped, u, q, bounds, info, breaks)
+    if (info < 0 .or. info == info_failed) then
+      q = 0.0_dp
+      bounds = 0.0_dp
+    end if
+  end subroutine dssign_run
 
   !> The printing options IOPT(4), IOPT(5), needed before any other check can report.
   subroutine dssign_output_options(iopt, opt)
@@ -470,7 +536,7 @@ contains
   !> when the dual runs (arg 5 / 8 on failure), the primal solve from u (zero unless
   !> IOPT(9) = 1), the dual field and bounds; u, q (the dual field at the caller's
   !> vertices), bounds and info as documented at DSSIGN.
-  subroutine dssign_analyse(iprob, mesh, fsrc, opt, itri, flipped, u, q, bounds, info)
+  subroutine dssign_analyse(iprob, mesh, fsrc, opt, itri, flipped, u, q, bounds, info, breaks)
     integer, intent(in) :: iprob
     type(mesh_t), intent(inout) :: mesh
     procedure(scalar_field) :: fsrc
@@ -481,6 +547,7 @@ contains
     real(dp), intent(inout) :: q(:,:)
     real(dp), intent(inout) :: bounds(4)
     integer, intent(inout) :: info
+    real(dp), allocatable, intent(in) :: breaks(:)     !! break lines of f (unallocated: none)
     type(analysis_problem_t) :: problem
     type(analysis_t) :: an
     type(level_result_t) :: res
@@ -501,6 +568,7 @@ contains
     problem%gamma_u = [merge(mark_gamma_u, 0, any(mesh%bedge_marker == mark_gamma_u))]
     problem%gamma_a = [merge(mark_gamma_a, 0, any(mesh%bedge_marker == mark_gamma_a))]
     allocate (problem%f, source=function_field(fsrc))
+    if (allocated(breaks)) problem%x_breaks = breaks
     call move_mesh(mesh, problem%mesh)
     if (.not. opt%start_from_u) u = 0.0_dp
     call analysis_start(an, problem, settings_of(opt, iprob), st, u_start=u)
@@ -513,7 +581,7 @@ contains
     end if
     call report(opt, iprob, res, count(flipped), info)
     if (res%has_dual) then
-      bounds(1:3) = [res%est, res%energy_lo, res%energy_hi]
+      bounds = [res%est, res%energy_lo, res%energy_hi, res%oscillation]
       call vertex_field(iprob, an%mesh, problem, res, itri, flipped, q)
       call dssign_print(opt, 1, 'DSSIGN: E = ' // rtoa(bounds(1)) // ', energy bounds ' // rtoa(bounds(2)) // &
         ' <= (f,u) <= ' // rtoa(bounds(3)))

@@ -18,12 +18,16 @@ module dualsig_estimate_dual_p1
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_quadrature, only: tri_rule_t, tri_points_t, tri_points
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
   use dualsig_elements_p1, only: p1_gradients
+  use dualsig_load_data, only: load_data_t
   implicit none
   private
 
-  public :: dual_p1_bounds_t, dual_p1_bounds, dual_p1_errors
+  public :: dual_p1_bounds_t, dual_p1_bounds, dual_p1_bounds_load, dual_p1_errors
+
+  !> Largest total degree of the polynomial integrands of dual_p1_bounds_load.
+  integer, parameter :: polynomial_degree = 2
 
   type :: dual_p1_bounds_t
     real(dp) :: est = 0.0_dp             !! E(q, u~) of (6.13)
@@ -75,7 +79,80 @@ contains
       end do
       bnd%est_elem(t) = e1 + e2
     end do
-    ! boundary term: int_e (q.nu) u ds with both factors linear: L/6 (2 a1 b1 + a1 b2 + a2 b1 + 2 a2 b2)
+    call add_boundary_terms(mesh, u, q, bnd)
+    bnd%est = sum(bnd%est_elem)
+    bnd%energy_lo = 2.0_dp * fu - uu
+  end subroutine dual_p1_bounds
+
+  !> The bounds of (6.13) and (6.14) as dual_p1_bounds, with f entering only through its
+  !> load data (dualsig_load_data: mean f_T, moments m_T, Pi_1 f = f_T + g_T . (x - x_T) and
+  !> osc_T = ||f - Pi_1 f||_T per triangle), every other integrand a polynomial integrated
+  !> exactly.  f - Pi_1 f is orthogonal to linear functions on T, so with div q constant
+  !> and u~ linear on T
+  !>   ||f + div q - u~||_T^2 = osc_T^2 + ||Pi_1 f + div q - u~||_T^2,
+  !>   ||f + div q||_T^2 = osc_T^2 + ||Pi_1 f + div q||_T^2,
+  !>   (f, u~)_T = f_T int_T u~ + grad u~ . m_T,
+  !> identities, so the bounds hold for any f in L2 whose load data are right.
+  subroutine dual_p1_bounds_load(mesh, u, q, load, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:), q(:)
+    type(load_data_t), intent(in) :: load
+    type(dual_p1_bounds_t), intent(out) :: bnd
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), qq(2), pv
+    real(dp) :: e1, e2, fu, uu, qsq, hsq, c, centroid(2)
+    type(tri_points_t) :: tp
+    type(tri_rule_t) :: exact_rule
+    integer :: t, k
+    exact_rule = tri_rule(polynomial_degree)
+    allocate (bnd%est_elem(mesh%ntri))
+    fu = 0.0_dp
+    uu = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_gradients(xy, grad, area)
+      ue = u(mesh%tri(:, t))
+      do k = 1, 3
+        qe(:, k) = q(2 * mesh%tri(k, t) - 1:2 * mesh%tri(k, t))
+      end do
+      gu = matmul(grad, ue)
+      divq = sum(grad * qe)
+      centroid = sum(xy, dim=2) / 3.0_dp
+      ! polynomial parts, degree 2: exact with the degree-2 rule
+      tp = tri_points(xy, exact_rule, [real(dp) ::])
+      e1 = 0.0_dp
+      e2 = 0.0_dp
+      qsq = 0.0_dp
+      hsq = 0.0_dp
+      do k = 1, tp%n
+        qq = matmul(qe, tp%bary(:, k))
+        c = load%mean(t) + dot_product(load%slope(:, t), tp%p(:, k) - centroid) + divq   ! Pi_1 f + div q
+        pv = c - dot_product(tp%bary(:, k), ue)
+        e1 = e1 + tp%w(k) * sum((qq - gu)**2)
+        e2 = e2 + tp%w(k) * pv**2
+        qsq = qsq + tp%w(k) * sum(qq**2)
+        hsq = hsq + tp%w(k) * c**2
+        uu = uu + tp%w(k) * dot_product(tp%bary(:, k), ue)**2
+      end do
+      uu = uu + area * sum(gu**2)
+      e2 = e2 + load%osc(t)**2
+      bnd%energy_hi = bnd%energy_hi + qsq + load%osc(t)**2 + hsq
+      fu = fu + load%mean(t) * area * sum(ue) / 3.0_dp + dot_product(gu, load%moment(:, t))
+      bnd%est_elem(t) = e1 + e2
+    end do
+    call add_boundary_terms(mesh, u, q, bnd)
+    bnd%est = sum(bnd%est_elem)
+    bnd%energy_lo = 2.0_dp * fu - uu
+  end subroutine dual_p1_bounds_load
+
+  !> The boundary term of (6.13): 2 int_e (q.nu) u~ ds on every boundary edge, with both
+  !> factors linear: L/6 (2 a1 b1 + a1 b2 + a2 b1 + 2 a2 b2), q.nu taken >= 0 at the edge
+  !> ends; added to est_elem of the edge's triangle and to boundary_term.
+  subroutine add_boundary_terms(mesh, u, q, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:), q(:)
+    type(dual_p1_bounds_t), intent(inout) :: bnd
+    real(dp) :: qn(2), ub(2), len, e1
+    integer :: j, a, b, t
     do j = 1, mesh%nbedge
       a = mesh%bedge_nodes(1, j)
       b = mesh%bedge_nodes(2, j)
@@ -89,9 +166,7 @@ contains
       t = mesh%bedge_tri(j)
       bnd%est_elem(t) = bnd%est_elem(t) + e1
     end do
-    bnd%est = sum(bnd%est_elem)
-    bnd%energy_lo = 2.0_dp * fu - uu
-  end subroutine dual_p1_bounds
+  end subroutine add_boundary_terms
 
   !> Errors of the dual field against the exact solution u of P1 (grad u = q^0,
   !> u = f + div q^0): err_q = ||q - grad u||, err_div = ||f + div q - u||, and the

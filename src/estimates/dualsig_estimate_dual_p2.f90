@@ -15,14 +15,20 @@ module dualsig_estimate_dual_p2
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_quadrature, only: tri_rule_t, tri_points_t, tri_points
+  use dualsig_kinds, only: pi
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_load_data, only: load_data_t
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_elements_equilibrium, only: equilibrium_field
-  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda
+  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_value
   implicit none
   private
 
-  public :: dual_p2_bounds_t, dual_p2_bounds, dual_p2_error
+  public :: dual_p2_bounds_t, dual_p2_bounds, dual_p2_bounds_load, dual_p2_error
+
+  !> Largest total degree of the polynomial integrands of dual_p2_bounds_load (lambda^h is
+  !> piecewise quadratic: |lambda^h - grad u~|^2 has degree 4).
+  integer, parameter :: polynomial_degree = 4
 
   type :: dual_p2_bounds_t
     real(dp) :: est = 0.0_dp             !! E(lambda^h, u~) of (6.26)
@@ -30,6 +36,7 @@ module dualsig_estimate_dual_p2
     real(dp) :: energy_hi = 0.0_dp       !! ||lambda^h||^2
     real(dp) :: boundary_term = 0.0_dp   !! 2 int_{Gamma_a} (lambda^h . nu) u~ ds
     real(dp), allocatable :: est_elem(:) !! (ntri) element contributions, sum = est
+    real(dp) :: oscillation = 0.0_dp     !! (sum_T ((h_T/pi) ||f - Pi_1 f||_T)^2)^(1/2) (load version)
   end type dual_p2_bounds_t
 
 contains
@@ -87,6 +94,93 @@ contains
     bnd%est = sum(bnd%est_elem)
     bnd%energy_lo = 2.0_dp * fu - uu
   end subroutine dual_p2_bounds
+
+  !> The bounds for a polynomial lambda^h (div lambda^h = -Pi_1 f on every triangle,
+  !> lambda^h . nu >= 0 on Gamma_a; dualsig_dual_p2_field) and any f in L2, from the load
+  !> data of f (mean f_T, moments m_T, osc_T = ||f - Pi_1 f||_T per triangle).  With
+  !> w = u - u~ and the Payne-Weinberger inequality (f - Pi_1 f, w)_T <= (h_T/pi) osc_T
+  !> |w|_{1,T} (f - Pi_1 f has mean zero on T; T convex, h_T its diameter):
+  !>   |w|_1^2 <= (f, w) - (grad u~, grad w)      (the variational inequality, u~ in K_2h)
+  !>           = (f - Pi_1 f, w) + (lambda - grad u~, grad w) - int_{Gamma_a} lambda.nu w
+  !>           <= eta |w|_1 + B,   eta^2 = sum_T (||lambda - grad u~||_T + (h_T/pi) osc_T)^2,
+  !>                               B = int_{Gamma_a} (lambda.nu) u~ ds >= 0
+  !> (lambda.nu >= 0 and u >= 0 on Gamma_a), hence the guaranteed bound of (6.26)'s form
+  !>   |w|_1^2 <= est = eta^2 + 2 B;
+  !> likewise |u|_1^2 = (f, u) <= (||lambda|| + osc) |u|_1 with osc^2 = sum_T ((h_T/pi) osc_T)^2:
+  !>   energy_hi = (||lambda|| + osc)^2,  and  energy_lo = 2 (f, u~) - |u~|_1^2 with
+  !>   (f, u~)_T = f_T int_T u~ + grad u~ . m_T exactly (Theorem 6.4).
+  !> Without oscillation (f linear on every triangle) these are (6.26) and Theorem 6.4 as
+  !> printed.  Every other integrand is a polynomial of degree <= 4, integrated exactly.
+  subroutine dual_p2_bounds_load(mesh, u, field, load, is_gamma_a, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:)
+    type(dual_p2_field_t), intent(in) :: field
+    type(load_data_t), intent(in) :: load
+    logical, intent(in) :: is_gamma_a(:)
+    type(dual_p2_bounds_t), intent(out) :: bnd
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, lsq, osc_t
+    type(tri_rule_t) :: rule
+    type(tri_points_t) :: tp
+    integer :: t, k
+    rule = tri_rule(polynomial_degree)
+    allocate (bnd%est_elem(mesh%ntri))
+    fu = 0.0_dp
+    uu = 0.0_dp
+    lsq = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call p1_gradients(xy, grad, area)
+      ue = u(mesh%tri(:, t))
+      gu = matmul(grad, ue)
+      e1 = 0.0_dp
+      tp = tri_points(xy, rule, [real(dp) ::])
+      do k = 1, tp%n
+        lam = equilibrium_field(field%c(:, :, t), field%beta(:, t) + field%beta_f(:, t), tp%bary(:, k)) + &
+              bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
+        e1 = e1 + tp%w(k) * sum((lam - gu)**2)
+        lsq = lsq + tp%w(k) * sum(lam**2)
+      end do
+      osc_t = load%diameter(t) / pi * load%osc(t)
+      bnd%oscillation = bnd%oscillation + osc_t**2
+      bnd%est_elem(t) = (sqrt(e1) + osc_t)**2
+      uu = uu + area * sum(gu**2)
+      fu = fu + load%mean(t) * area * sum(ue) / 3.0_dp + dot_product(gu, load%moment(:, t))
+    end do
+    bnd%oscillation = sqrt(bnd%oscillation)
+    call add_gamma_a_terms(mesh, u, field, is_gamma_a, bnd)
+    bnd%est = sum(bnd%est_elem)
+    bnd%energy_lo = 2.0_dp * fu - uu
+    bnd%energy_hi = (sqrt(lsq) + bnd%oscillation)**2
+  end subroutine dual_p2_bounds_load
+
+  !> 2 int_{Gamma_a} (lambda.nu) u~ ds, both factors linear on an edge (exact), the flux
+  !> taken >= 0 at the edge ends; added to est_elem of the edge's triangle.
+  subroutine add_gamma_a_terms(mesh, u, field, is_gamma_a, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:)
+    type(dual_p2_field_t), intent(in) :: field
+    logical, intent(in) :: is_gamma_a(:)
+    type(dual_p2_bounds_t), intent(inout) :: bnd
+    real(dp) :: flux(2), ub(2), len, e1, bary(3)
+    integer :: j, i, t, lv
+    do j = 1, mesh%nbedge
+      if (.not. is_gamma_a(j)) cycle
+      t = mesh%bedge_tri(j)
+      len = mesh%bedge_length(j)
+      do i = 1, 2
+        lv = findloc(mesh%tri(:, t), mesh%bedge_nodes(i, j), dim=1)
+        bary = 0.0_dp
+        bary(lv) = 1.0_dp
+        flux(i) = max(0.0_dp, dot_product(equilibrium_field(field%c(:, :, t), field%beta(:, t) + field%beta_f(:, t), &
+                                                            bary), mesh%bedge_normal(:, j)))
+        ub(i) = u(mesh%bedge_nodes(i, j))
+      end do
+      e1 = 2.0_dp * len / 6.0_dp * (2.0_dp * flux(1) * ub(1) + flux(1) * ub(2) + flux(2) * ub(1) &
+                                    + 2.0_dp * flux(2) * ub(2))
+      bnd%boundary_term = bnd%boundary_term + e1
+      bnd%est_elem(t) = bnd%est_elem(t) + e1
+    end do
+  end subroutine add_gamma_a_terms
 
   !> ||grad u - lambda^h||_0 for the exact solution u.
   real(dp) function dual_p2_error(mesh, field, f, grad_u, rule) result(err)

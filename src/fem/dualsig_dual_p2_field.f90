@@ -1,7 +1,19 @@
-!> The admissible dual field of problem P2 (Sections 4-6): lambda^h = lambda^f + q^h, with
-!> lambda^f = lambda_bar + curl(omega) the particular field (div lambda^f = -f) and q^h the
-!> equilibrium-element field given by the element matrices C_e and flux parameters beta_e
-!> (Section 4).  Produced by dualsig_problem_dual_p2, read by the estimates and the output.
+!> The admissible dual field of problem P2 (Sections 4-6): lambda^h = lambda^f + q^h, q^h
+!> the equilibrium-element field given by the element matrices C_e and flux parameters
+!> beta_e (Section 4), and the particular field lambda^f either
+!>  - polynomial (the default): div lambda^f = -Pi_1 f on every triangle (Pi_1 f = f_T +
+!>    g_T . (x - x_T), the L2 projection onto linear functions) and lambda^f . nu = 0 on
+!>    Gamma_a: a piecewise linear part in the same parameters, beta_f, with div = -f_T, plus
+!>    on every triangle a quadratic bubble with zero normal trace and div = -g_T . (x - x_T),
+!>    sigma_T = sum_i c_i lambda_{i+1} lambda_{i+2} (a_{i+2} - a_{i+1}) (barycentric
+!>    lambda_i, indices mod 3): div sigma_T = sum_k (c_{k-1} - c_{k+1}) lambda_k, so the
+!>    coefficients alpha_k = -g_T . (a_k - x_T) of the target (they sum to zero) give
+!>    c_i = (alpha_{i+1} - alpha_{i+2}) / 3.  lambda^h is then piecewise quadratic, every
+!>    integral of the bounds a polynomial, and f - Pi_1 f enters them as an oscillation
+!>    term; or
+!>  - the paper's lambda_bar + curl(omega) of dualsig_particular_field (div lambda^f = -f
+!>    exactly, lambda^f . nu = -g_h on Gamma_a; Remark 6.5).
+!> Produced by dualsig_problem_dual_p2, read by the estimates and the output.
 module dualsig_dual_p2_field
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t
@@ -11,17 +23,21 @@ module dualsig_dual_p2_field
   implicit none
   private
 
-  public :: dual_p2_field_t, dual_p2_lambda
+  public :: dual_p2_field_t, dual_p2_lambda, bubble_coefficients, bubble_value
 
   type :: dual_p2_field_t
-    type(particular_field_t) :: pf          !! lambda^f
+    logical :: polynomial = .false.         !! lambda^f is beta_f (else pf)
+    type(particular_field_t) :: pf          !! lambda^f = lambda_bar + curl(omega) (not polynomial)
+    real(dp), allocatable :: beta_f(:,:)    !! (6, ntri) flux parameters of lambda^f (polynomial)
+    real(dp), allocatable :: bubble(:,:)    !! (3, ntri) c_i of the bubble sigma_T (polynomial)
     real(dp), allocatable :: c(:,:,:)       !! (6, 6, ntri) C_e
     real(dp), allocatable :: beta(:,:)      !! (6, ntri) flux parameters of q^h
   end type dual_p2_field_t
 
 contains
 
-  !> lambda^h = lambda^f + q^h at the point with barycentric coordinates bary of triangle t.
+  !> lambda^h = lambda^f + q^h at the point with barycentric coordinates bary of triangle t
+  !> (f is used only by the non-polynomial lambda^f).
   function dual_p2_lambda(field, mesh, f, t, bary) result(v)
     type(dual_p2_field_t), intent(in) :: field
     type(mesh_t), intent(in) :: mesh
@@ -30,7 +46,40 @@ contains
     real(dp), intent(in) :: bary(3)
     real(dp) :: v(2)
     real(dp) :: p(2)
+    if (field%polynomial) then
+      v = equilibrium_field(field%c(:, :, t), field%beta(:, t) + field%beta_f(:, t), bary) + &
+          bubble_value(mesh%xy(:, mesh%tri(:, t)), field%bubble(:, t), bary)
+      return
+    end if
     p = matmul(mesh%xy(:, mesh%tri(:, t)), bary)
     v = lambda_f_at(field%pf, mesh, f, t, p(1), p(2)) + equilibrium_field(field%c(:, :, t), field%beta(:, t), bary)
   end function dual_p2_lambda
+
+  !> The coefficients c of the bubble with div sigma = -g . (x - x_T) on the triangle xy.
+  pure function bubble_coefficients(xy, g) result(c)
+    real(dp), intent(in) :: xy(2, 3), g(2)
+    real(dp) :: c(3)
+    real(dp) :: alpha(3), centroid(2)
+    integer :: k
+    centroid = sum(xy, dim=2) / 3.0_dp
+    do k = 1, 3
+      alpha(k) = -dot_product(g, xy(:, k) - centroid)
+    end do
+    do k = 1, 3
+      c(k) = (alpha(mod(k, 3) + 1) - alpha(mod(k + 1, 3) + 1)) / 3.0_dp
+    end do
+  end function bubble_coefficients
+
+  !> sigma(bary) = sum_i c_i lambda_{i+1} lambda_{i+2} (a_{i+2} - a_{i+1}) on the triangle xy.
+  pure function bubble_value(xy, c, bary) result(v)
+    real(dp), intent(in) :: xy(2, 3), c(3), bary(3)
+    real(dp) :: v(2)
+    integer :: i, j, k
+    v = 0.0_dp
+    do i = 1, 3
+      j = mod(i, 3) + 1
+      k = mod(i + 1, 3) + 1
+      v = v + c(i) * bary(j) * bary(k) * (xy(:, k) - xy(:, j))
+    end do
+  end function bubble_value
 end module dualsig_dual_p2_field

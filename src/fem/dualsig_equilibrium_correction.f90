@@ -67,17 +67,19 @@ contains
   end function edge_divergence_weight
 
   !> Change x (global edge-end fluxes, 2 nedge) so that every triangle's divergence row
-  !> w_t = sum_k d(k, t) sgn(k, t) x(dof(k, t)) vanishes to rounding, by constant normal
-  !> fluxes on Gamma_u and interior edges of a spanning forest of the dual graph.  The
-  !> unknowns of Gamma_a edges (is_gamma_a, per boundary edge) are not changed.
+  !> w_t = sum_k d(k, t) sgn(k, t) x(dof(k, t)) vanishes to rounding -- or, with target,
+  !> equals target(t) (the outward flux int_t div q wanted) -- by constant normal fluxes on
+  !> Gamma_u and interior edges of a spanning forest of the dual graph.  The unknowns of
+  !> Gamma_a edges (is_gamma_a, per boundary edge) are not changed.
   !> On an error x is unchanged.
-  subroutine equilibrate_divergence(mesh, map, d, is_gamma_a, x, st)
+  subroutine equilibrate_divergence(mesh, map, d, is_gamma_a, x, st, target)
     type(mesh_t), intent(in) :: mesh
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: d(:,:)
     logical, intent(in) :: is_gamma_a(:)
     real(dp), intent(inout) :: x(:)
     type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: target(:)   !! (ntri) wanted w_t (default 0)
     integer, allocatable :: order(:), parent_edge(:)
     integer :: j, e, t, s, nb, head, tail, i
     real(dp) :: w, g, alpha
@@ -145,11 +147,19 @@ contains
       end if
     end do
 
-    ! children before parents: zero w_t by the constant flux alpha on the parent edge
+    if (present(target)) then
+      if (size(target) /= mesh%ntri) then
+        call set_error(st, DS_ERR_INPUT, 'equilibrate_divergence: target has ' // itoa(size(target)) // &
+          ' entries, expected one per triangle (' // itoa(mesh%ntri) // ')')
+        return
+      end if
+    end if
+    ! children before parents: w_t - target_t to zero by the constant flux alpha on the parent edge
     do i = mesh%ntri, 1, -1
       t = order(i)
       e = parent_edge(t)
       w = sum(d(:, t) * map%sgn(:, t) * x(map%dof(:, t)))
+      if (present(target)) w = w - target(t)
       g = edge_divergence_weight(map, d, e, t)
       alpha = -w / g
       x(2 * e - 1) = x(2 * e - 1) + alpha

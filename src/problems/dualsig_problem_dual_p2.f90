@@ -41,7 +41,8 @@ module dualsig_problem_dual_p2
                                           equilibrium_rows_local, equilibrium_gamma_a_dofs
   use dualsig_particular_field, only: particular_field_t, particular_field_build, lambda_f_at
   use dualsig_equilibrium_correction, only: equilibrate_divergence
-  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda
+  use dualsig_load_data, only: load_data_t, load_data_build
+  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_coefficients, bubble_value
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_strings, only: itoa
   implicit none
@@ -55,6 +56,8 @@ module dualsig_problem_dual_p2
   !> the loads only affect how close q^h is to the exact discrete minimiser, never the
   !> admissibility of lambda^h (any q^h of K_h gives an admissible lambda^h).
   integer, parameter :: load_degree = 5
+  !> Degree of the rule for the loads of the bubbles (cubic integrands: exact).
+  integer, parameter :: bubble_load_degree = 3
 
   type :: dual_p2_settings_t
     character(len=16) :: method = 'augmented'  !! 'augmented' or 'uzawa'
@@ -65,6 +68,9 @@ module dualsig_problem_dual_p2
     real(dp) :: defect_tol = 1.0e-13_dp        !! augmented: relative divergence defect
     integer :: ordering = ORDERING_AMD          !! CHOLMOD ordering (AMD: cheapest analysis, see doc/performance.md)
     character(len=16) :: inner = 'schur'        !! augmented: inner solver, 'schur' or 'active_set'
+    !> lambda^f: 'polynomial' (piecewise linear, div = -f_T: every bound integral exact, f - f_T
+    !> an oscillation term) or 'stream' (the paper's lambda_bar + curl omega, div = -f)
+    character(len=16) :: particular = 'polynomial'
   end type dual_p2_settings_t
 
   type :: dual_p2_result_t
@@ -88,6 +94,7 @@ module dualsig_problem_dual_p2
     real(dp) :: seconds_elements = 0.0_dp    !! C_e, A_e, divergence rows
     real(dp) :: seconds_loads = 0.0_dp       !! element loads b_e (lambda^f at the quadrature points)
     real(dp) :: seconds_solver = 0.0_dp      !! global assembly and the solver (factorisations included)
+    logical :: particular_converged = .true. !! 'stream': every line integral of lambda_bar converged
   end type dual_p2_result_t
 
 contains
@@ -115,7 +122,7 @@ contains
   !> u_primal (optional, nnode): the primal solution on the same mesh; by complementarity
   !> (lambda . nu u = 0 on Gamma_a) the dual constraint is predicted active where u > 0,
   !> which starts the active-set method near its solution.
-  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal)
+  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     logical, intent(in) :: is_gamma_a(:)
@@ -126,10 +133,9 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)   !! abscissae of kinks of f (see particular field)
     real(dp), intent(in), optional :: u_primal(:)
+    type(load_data_t), intent(in), optional :: load   !! polynomial lambda^f: the load data (built when absent)
     type(equilibrium_map_t) :: map
-    type(tri_rule_t) :: rule
-    type(tri_points_t) :: tp
-    real(dp), allocatable :: ae(:,:,:), d(:,:), be(:,:), lam(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:)
+    real(dp), allocatable :: ae(:,:,:), d(:,:), be(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:), gh(:,:)
     logical, allocatable :: on_gamma_a(:)
     integer, allocatable :: kind(:), row_kind(:)
     type(csr_t) :: a
@@ -140,33 +146,35 @@ contains
     type(uzawa_settings_t) :: uset
     type(uzawa_result_t) :: ures
     type(status_t) :: st_eq
-    integer :: t, k
     real(dp) :: t0
 
     call dual_p2_check_assumptions(mesh, is_gamma_a, st)
     if (st%code /= 0) return
     t0 = wall_seconds()
-    call particular_field_build(mesh, f, x_start, is_gamma_a, field%pf, st, breaks)
-    if (.not. is_ok(st)) return
-    res%seconds_particular = lap(t0)
     call equilibrium_elements(mesh, field%c, ae, d, st)
     if (st%code /= 0) return
-    res%seconds_elements = lap(t0)
-    ! element loads b_e = -C_e^T int lambda^f . Phi  (4.7)
-    rule = tri_rule(load_degree)
-    allocate (be(6, mesh%ntri))
-    do t = 1, mesh%ntri
-      tp = tri_points(mesh%xy(:, mesh%tri(:, t)), rule, field%pf%breaks(1:field%pf%nbreaks))
-      if (allocated(lam)) deallocate (lam)
-      allocate (lam(2, tp%n))
-      do k = 1, tp%n
-        lam(:, k) = lambda_f_at(field%pf, mesh, f, t, tp%p(1, k), tp%p(2, k))
-      end do
-      call equilibrium_element_load(field%c(:, :, t), tp, lam, be(:, t))
-    end do
-    res%seconds_loads = lap(t0)
     call equilibrium_map(mesh, map)
-    call equilibrium_gamma_a_dofs(mesh, is_gamma_a, field%pf%gh, on_gamma_a, bnd)
+    res%seconds_elements = lap(t0)
+    select case (trim(settings%particular))
+    case ('polynomial')
+      call particular_polynomial(mesh, f, map, ae, d, is_gamma_a, field, be, st, breaks, load)
+      if (.not. is_ok(st)) return
+      res%seconds_particular = lap(t0)
+      allocate (gh(2, mesh%nbedge), source=0.0_dp)       ! lambda^f . nu = 0 on Gamma_a
+    case ('stream')
+      call particular_field_build(mesh, f, x_start, is_gamma_a, field%pf, st, breaks)
+      if (.not. is_ok(st)) return
+      res%particular_converged = field%pf%converged
+      res%seconds_particular = lap(t0)
+      call stream_loads(mesh, f, field, be)
+      gh = field%pf%gh
+    case default
+      call set_error(st, DS_ERR_INPUT, "dual P2: unknown particular field '" // trim(settings%particular) // &
+        "'; expected 'polynomial' or 'stream'")
+      return
+    end select
+    res%seconds_loads = lap(t0)
+    call equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd)
     allocate (field%beta(6, mesh%ntri), x(2 * mesh%nedge))
     res%nconstraints = mesh%ntri + count(on_gamma_a)
 
@@ -238,6 +246,97 @@ contains
     res%defect = divergence_defect(d, field%beta)
     res%seconds_solver = lap(t0)
   end subroutine dual_p2_solve
+
+  !> The polynomial particular field (dualsig_dual_p2_field): flux parameters beta_f of a
+  !> piecewise linear field with outward flux -f_T |T| through the boundary of every
+  !> triangle (div = -f_T, f_T the mean of f from the load data) and zero flux on Gamma_a,
+  !> by constant normal fluxes on a spanning forest of the dual graph rooted at Gamma_u
+  !> (dualsig_equilibrium_correction: O(ntri), exact to rounding), plus the bubbles with
+  !> div = -g_T . (x - x_T); and the element loads b_e = -A_e beta_f - C_e^T int sigma . Phi
+  !> of (4.7), exact ((lambda^f, q) = beta_f^T A_e beta for fields of the same element; the
+  !> bubble part is a cubic, integrated by the degree-5 rule).
+  subroutine particular_polynomial(mesh, f, map, ae, d, is_gamma_a, field, be, st, breaks, load)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: ae(:,:,:), d(:,:)
+    logical, intent(in) :: is_gamma_a(:)
+    type(dual_p2_field_t), intent(inout) :: field
+    real(dp), allocatable, intent(out) :: be(:,:)
+    type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: breaks(:)
+    type(load_data_t), intent(in), optional :: load
+    type(load_data_t) :: own
+    real(dp), allocatable :: xf(:), target(:), slope(:,:), lam(:,:)
+    real(dp) :: xy(2, 3)
+    type(tri_rule_t) :: rule
+    type(tri_points_t) :: tp
+    integer :: t, k
+    if (present(load)) then
+      target = -load%mean * triangle_areas(mesh)
+      slope = load%slope
+    else
+      call load_data_build(mesh, f, own, st, breaks)
+      if (.not. is_ok(st)) return
+      target = -own%mean * triangle_areas(mesh)
+      slope = own%slope
+    end if
+    allocate (xf(2 * mesh%nedge), source=0.0_dp)
+    call equilibrate_divergence(mesh, map, d, is_gamma_a, xf, st, target)
+    if (.not. is_ok(st)) return
+    field%polynomial = .true.
+    allocate (field%beta_f(6, mesh%ntri), field%bubble(3, mesh%ntri), be(6, mesh%ntri))
+    call equilibrium_to_local(map, xf, field%beta_f)
+    rule = tri_rule(bubble_load_degree)
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      field%bubble(:, t) = bubble_coefficients(xy, slope(:, t))
+      tp = tri_points(xy, rule, [real(dp) ::])
+      if (allocated(lam)) deallocate (lam)
+      allocate (lam(2, tp%n))
+      do k = 1, tp%n
+        lam(:, k) = bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
+      end do
+      call equilibrium_element_load(field%c(:, :, t), tp, lam, be(:, t))
+      be(:, t) = be(:, t) - matmul(ae(:, :, t), field%beta_f(:, t))
+    end do
+  end subroutine particular_polynomial
+
+  !> |T| of every triangle.
+  function triangle_areas(mesh) result(a)
+    type(mesh_t), intent(in) :: mesh
+    real(dp) :: a(mesh%ntri)
+    real(dp) :: xy(2, 3)
+    integer :: t
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      a(t) = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
+    end do
+  end function triangle_areas
+
+  !> The element loads b_e = -C_e^T int lambda^f . Phi (4.7) of the paper's particular field
+  !> (lambda^f at the points of a degree-load_degree rule, split at its breaks).
+  subroutine stream_loads(mesh, f, field, be)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(dual_p2_field_t), intent(in) :: field
+    real(dp), allocatable, intent(out) :: be(:,:)
+    type(tri_rule_t) :: rule
+    type(tri_points_t) :: tp
+    real(dp), allocatable :: lam(:,:)
+    integer :: t, k
+    rule = tri_rule(load_degree)
+    allocate (be(6, mesh%ntri))
+    do t = 1, mesh%ntri
+      tp = tri_points(mesh%xy(:, mesh%tri(:, t)), rule, field%pf%breaks(1:field%pf%nbreaks))
+      if (allocated(lam)) deallocate (lam)
+      allocate (lam(2, tp%n))
+      do k = 1, tp%n
+        lam(:, k) = lambda_f_at(field%pf, mesh, f, t, tp%p(1, k), tp%p(2, k))
+      end do
+      call equilibrium_element_load(field%c(:, :, t), tp, lam, be(:, t))
+    end do
+  end subroutine stream_loads
 
   !> The ordering of the global edge-end fluxes chosen by geometric_ordering (nested
   !> dissection for large meshes): unknown 2 (e - 1) + j sits at the point of edge e one

@@ -1,0 +1,264 @@
+!> The load f as the bounds see it: per triangle T the mean f_T = |T|^{-1} int_T f, the
+!> first moments m_T = int_T f (x - x_T) (x_T the centroid), the gradient g_T of the L2
+!> projection Pi_1 f = f_T + g_T . (x - x_T) onto linear functions (M_T g_T = m_T with
+!> M_T = int_T (x - x_T)(x - x_T)^T) and the oscillation osc_T = ||f - Pi_1 f||_{0,T}, each
+!> integrated until two successive approximations agree.
+!>
+!> Why these.  With f_h = Pi_1 f every other integral of a bound is a polynomial and is
+!> integrated exactly, and f enters only through these numbers:
+!>   (f, v)_T = f_T int_T v + grad v . m_T               for v linear on T (exact),
+!>   ||f + p||_T^2 = osc_T^2 + ||Pi_1 f + p||_T^2         for p linear on T (exact: f - Pi_1 f
+!>                                                        is orthogonal to linear functions),
+!>   (f - Pi_1 f, w)_T <= (h_T / pi) osc_T |w|_{1,T}     for w in H1(T) (Payne-Weinberger:
+!>                                                        f - Pi_1 f has mean zero; T convex,
+!>                                                        h_T its diameter).
+!> So the bounds are guaranteed for any f in L2 as far as these integrals are right.
+!>
+!> How they are integrated.  Adaptive cubature: on a piece P (the triangle, cut along the
+!> lines x = breaks(k) where f is known to jump or kink) Radon's degree-5 rule on P is
+!> compared with the sum of the rule over the four children of P (midpoint subdivision);
+!> when they agree to P's share (by area) of load_rel_tol times the triangle's scale
+!> (first pass: int f and, times h_T, int f (x - x_T), against int_T |f|; second pass:
+!> int (f - Pi_1 f)^2 against int_T f^2 + |T| f_T^2; neither scale below that of f over the
+!> whole domain), the children's value is taken, otherwise
+!> each child is treated the same way, down to max_depth levels.  A triangle where the
+!> criterion still fails is marked not converged: a bound that uses it is not certified.
+module dualsig_load_data
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: field_t
+  use dualsig_mesh, only: mesh_t
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
+  use dualsig_strings, only: itoa
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  implicit none
+  private
+
+  public :: load_data_t, load_data_build, load_rel_tol, load_max_depth
+
+  !> Two successive cubatures must agree to this, relative to the size of the integrand.
+  real(dp), parameter :: load_rel_tol = 1.0e-12_dp
+  !> Subdivision levels of a triangle at most (4^depth pieces where f is not resolved).
+  integer, parameter :: load_max_depth = 10
+  !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
+  !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
+  real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
+
+  type :: load_data_t
+    integer :: ntri = 0
+    real(dp), allocatable :: mean(:)        !! (ntri) f_T
+    real(dp), allocatable :: moment(:,:)    !! (2, ntri) int_T f (x - x_T)
+    real(dp), allocatable :: slope(:,:)     !! (2, ntri) g_T: Pi_1 f = f_T + g_T . (x - x_T) on T
+    real(dp), allocatable :: osc(:)         !! (ntri) ||f - Pi_1 f||_T
+    real(dp), allocatable :: diameter(:)    !! (ntri) h_T, the longest side
+    logical, allocatable :: converged(:)    !! (ntri) both passes met load_rel_tol
+    integer :: nunconverged = 0             !! triangles not converged
+    integer :: evaluations = 0              !! evaluations of f in all
+  end type load_data_t
+
+  !> Sums of one pass over a piece: int f, int f (x - x_T), int f (y - y_T), int f^2,
+  !> int |f| (first pass); int (f - Pi_1 f)^2 and int f^2 in slots 1, 2 (second pass).
+  integer, parameter :: nsum = 5
+
+contains
+
+  !> The load data of f on mesh.  breaks (optional): abscissae of lines x = c where f may
+  !> jump or have a kink; the cubature splits the triangles there.  An error when f is not
+  !> finite at an evaluation point (naming the triangle and the point).
+  subroutine load_data_build(mesh, f, data, st, breaks)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(load_data_t), intent(out) :: data
+    type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: breaks(:)
+    type(tri_rule_t) :: rule
+    real(dp), allocatable :: br(:)
+    real(dp) :: xy(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
+    logical :: ok1, ok2
+    integer :: t, k
+    data%ntri = mesh%ntri
+    allocate (data%mean(mesh%ntri), data%moment(2, mesh%ntri), data%slope(2, mesh%ntri), data%osc(mesh%ntri), &
+              data%diameter(mesh%ntri), data%converged(mesh%ntri), stat=k)
+    if (k /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'load data: cannot allocate ' // itoa(mesh%ntri) // ' triangles')
+      return
+    end if
+    br = [real(dp) ::]
+    if (present(breaks)) br = breaks
+    rule = tri_rule(5)
+    call global_scales(abs_density, sq_density)
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      centroid = sum(xy, dim=2) / 3.0_dp
+      area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
+      diameter = piece_size(xy)
+      data%diameter(t) = diameter
+      call adapt(xy, 0, 0.0_dp, .false., -1.0_dp, s, ok1)
+      if (.not. all(ieee_is_finite(s))) then
+        call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
+          rtoa_pair(centroid) // ')')
+        return
+      end if
+      data%mean(t) = s(1) / area
+      data%moment(:, t) = s(2:3)
+      data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
+      slope = data%slope(:, t)
+      call adapt(xy, 0, data%mean(t), .true., -1.0_dp, s, ok2)
+      data%osc(t) = sqrt(max(s(1), 0.0_dp))
+      data%converged(t) = ok1 .and. ok2
+    end do
+    data%nunconverged = count(.not. data%converged)
+
+  contains
+
+    !> The sums of a pass over the piece xy at subdivision depth: the first pass (fbar
+    !> unused) or, with second, int (f - fbar - slope . (x - x_T))^2 and int f^2.
+    recursive subroutine adapt(xy, depth, fbar, second, density, s, ok)
+      real(dp), intent(in) :: xy(2, 3)
+      integer, intent(in) :: depth
+      real(dp), intent(in) :: fbar
+      logical, intent(in) :: second
+      real(dp), intent(in) :: density     !! the triangle's scale per unit area (< 0: set it at depth 0)
+      real(dp), intent(out) :: s(nsum)
+      logical, intent(out) :: ok
+      real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), tol, rho
+      logical :: ok_child
+      integer :: c
+      coarse = piece_sums(xy, fbar, second)
+      call children(xy, kids)
+      fine = 0.0_dp
+      do c = 1, 4
+        fine = fine + piece_sums(kids(:, :, c), fbar, second)
+      end do
+      ! the tolerance of a piece is its share (by area) of load_rel_tol times the triangle's
+      ! scale: int |f| (first pass) or int f^2 + |T| f_T^2 (second pass)
+      rho = density
+      if (rho < 0.0_dp) then
+        if (second) then
+          rho = max(fine(2) / area + fbar**2, sq_density)
+        else
+          rho = max(fine(5) / area, abs_density)
+        end if
+      end if
+      tol = load_rel_tol * rho * piece_area(xy)
+      if (second) then
+        ok = abs(fine(1) - coarse(1)) <= tol + osc_floor * rho * piece_area(xy)
+      else
+        ok = abs(fine(1) - coarse(1)) <= tol .and. all(abs(fine(2:3) - coarse(2:3)) <= tol * diameter)
+      end if
+      if (ok .or. depth >= load_max_depth .or. .not. all(ieee_is_finite(fine))) then
+        s = fine
+        return
+      end if
+      s = 0.0_dp
+      ok = .true.
+      do c = 1, 4
+        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, child, ok_child)
+        s = s + child
+        ok = ok .and. ok_child
+      end do
+    end subroutine adapt
+
+    !> The scales of f over the whole domain per unit area, int |f| / |Omega| and
+    !> int f^2 / |Omega| (the rule once per triangle): no triangle needs its integrals more
+    !> accurately than load_rel_tol of the load as a whole (where f is nearly zero, its own
+    !> rounding would otherwise decide).
+    subroutine global_scales(abs_density, sq_density)
+      real(dp), intent(out) :: abs_density, sq_density
+      real(dp) :: sums(nsum), total_area, pxy(2, 3)
+      integer :: tt
+      abs_density = 0.0_dp
+      sq_density = 0.0_dp
+      total_area = 0.0_dp
+      do tt = 1, mesh%ntri
+        pxy = mesh%xy(:, mesh%tri(:, tt))
+        centroid = sum(pxy, dim=2) / 3.0_dp
+        sums = piece_sums(pxy, 0.0_dp, .false.)
+        abs_density = abs_density + sums(5)
+        sq_density = sq_density + sums(4)
+        total_area = total_area + piece_area(pxy)
+      end do
+      abs_density = abs_density / max(total_area, tiny(1.0_dp))
+      sq_density = sq_density / max(total_area, tiny(1.0_dp))
+    end subroutine global_scales
+
+    !> The rule on the piece (cut at the breaks): the sums of the pass.
+    function piece_sums(xy, fbar, second) result(s)
+      real(dp), intent(in) :: xy(2, 3), fbar
+      logical, intent(in) :: second
+      real(dp) :: s(nsum)
+      type(tri_points_t) :: tp
+      real(dp) :: v, d(2)
+      integer :: q
+      tp = tri_points(xy, rule, br)
+      s = 0.0_dp
+      do q = 1, tp%n
+        v = f%value(tp%p(1, q), tp%p(2, q))
+        data%evaluations = data%evaluations + 1
+        d = tp%p(:, q) - centroid
+        if (second) then
+          s(1) = s(1) + tp%w(q) * (v - fbar - dot_product(slope, d))**2
+          s(2) = s(2) + tp%w(q) * v * v
+        else
+          s(1) = s(1) + tp%w(q) * v
+          s(2:3) = s(2:3) + tp%w(q) * v * d
+          s(4) = s(4) + tp%w(q) * v * v
+          s(5) = s(5) + tp%w(q) * abs(v)
+        end if
+      end do
+    end function piece_sums
+  end subroutine load_data_build
+
+  !> g with M g = m, M = int_T (x - x_T)(x - x_T)^T = |T|/12 sum_k (a_k - x_T)(a_k - x_T)^T
+  !> (exact for the second moments of a triangle about its centroid).
+  pure function linear_slope(xy, centroid, area, m) result(g)
+    real(dp), intent(in) :: xy(2, 3), centroid(2), area, m(2)
+    real(dp) :: g(2)
+    real(dp) :: mm(2, 2), d(2), det
+    integer :: k
+    mm = 0.0_dp
+    do k = 1, 3
+      d = xy(:, k) - centroid
+      mm(1, 1) = mm(1, 1) + d(1) * d(1)
+      mm(1, 2) = mm(1, 2) + d(1) * d(2)
+      mm(2, 2) = mm(2, 2) + d(2) * d(2)
+    end do
+    mm = mm * area / 12.0_dp
+    mm(2, 1) = mm(1, 2)
+    det = mm(1, 1) * mm(2, 2) - mm(1, 2) * mm(2, 1)
+    g = [mm(2, 2) * m(1) - mm(1, 2) * m(2), mm(1, 1) * m(2) - mm(2, 1) * m(1)] / det
+  end function linear_slope
+
+  !> The four children of a triangle by midpoint subdivision.
+  pure subroutine children(xy, kids)
+    real(dp), intent(in) :: xy(2, 3)
+    real(dp), intent(out) :: kids(2, 3, 4)
+    real(dp) :: m12(2), m23(2), m31(2)
+    m12 = 0.5_dp * (xy(:, 1) + xy(:, 2))
+    m23 = 0.5_dp * (xy(:, 2) + xy(:, 3))
+    m31 = 0.5_dp * (xy(:, 3) + xy(:, 1))
+    kids(:, :, 1) = reshape([xy(:, 1), m12, m31], [2, 3])
+    kids(:, :, 2) = reshape([m12, xy(:, 2), m23], [2, 3])
+    kids(:, :, 3) = reshape([m31, m23, xy(:, 3)], [2, 3])
+    kids(:, :, 4) = reshape([m23, m31, m12], [2, 3])
+  end subroutine children
+
+  pure real(dp) function piece_area(xy) result(a)
+    real(dp), intent(in) :: xy(2, 3)
+    a = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
+  end function piece_area
+
+  !> The longest side of a piece.
+  pure real(dp) function piece_size(xy) result(h)
+    real(dp), intent(in) :: xy(2, 3)
+    h = max(norm2(xy(:, 2) - xy(:, 1)), norm2(xy(:, 3) - xy(:, 2)), norm2(xy(:, 1) - xy(:, 3)))
+  end function piece_size
+
+  function rtoa_pair(p) result(s)
+    real(dp), intent(in) :: p(2)
+    character(len=:), allocatable :: s
+    character(len=64) :: buf
+    write (buf, '(a,es12.5,a,es12.5,a)') '(', p(1), ', ', p(2), ')'
+    s = trim(buf)
+  end function rtoa_pair
+end module dualsig_load_data
