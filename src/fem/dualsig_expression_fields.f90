@@ -1,0 +1,62 @@
+!> Fields given by compiled expressions (the expression language of `dualsig_expression`,
+!> doc/expressions.md): a user's source f, boundary data g or exact solution u written as
+!> text, and the gradient of u obtained from the same expression by automatic
+!> differentiation.
+!>
+!> A value that is not finite (1/0, log(-1), sqrt(0)'s derivative) is returned as it is:
+!> the caller checks the points it will use with `expression_check_finite` first and names
+!> the point (and the triangle) in its message.
+module dualsig_expression_fields
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: field_t, vector_field_t
+  use dualsig_expression, only: expression_t, expression_value, expression_value_grad
+  implicit none
+  private
+
+  public :: expression_field_t, expression_gradient_t, expression_field, expression_gradient
+
+  !> The scalar field of a compiled expression: value(x, y) = expression_value(expr, x, y).
+  type, extends(field_t) :: expression_field_t
+    type(expression_t) :: expr                   !! the compiled expression
+  contains
+    procedure :: value => expression_field_value
+  end type expression_field_t
+
+  !> The gradient of a compiled expression, by forward-mode automatic differentiation:
+  !> value(x, y) = (d/dx, d/dy) of expr at (x, y).
+  type, extends(vector_field_t) :: expression_gradient_t
+    type(expression_t) :: expr                   !! the compiled expression (of u, not of grad u)
+  contains
+    procedure :: value => expression_gradient_value
+  end type expression_gradient_t
+
+contains
+
+  !> The field of a compiled expression.
+  function expression_field(expr) result(field)
+    type(expression_t), intent(in) :: expr
+    type(expression_field_t) :: field
+    field%expr = expr
+  end function expression_field
+
+  !> The gradient field of a compiled expression.
+  function expression_gradient(expr) result(field)
+    type(expression_t), intent(in) :: expr
+    type(expression_gradient_t) :: field
+    field%expr = expr
+  end function expression_gradient
+
+  real(dp) function expression_field_value(self, x, y) result(v)
+    class(expression_field_t), intent(in) :: self
+    real(dp), intent(in) :: x, y
+    v = expression_value(self%expr, x, y)
+  end function expression_field_value
+
+  function expression_gradient_value(self, x, y) result(g)
+    class(expression_gradient_t), intent(in) :: self
+    real(dp), intent(in) :: x, y
+    real(dp) :: g(2)
+    real(dp) :: v
+    call expression_value_grad(self%expr, x, y, v, g)
+  end function expression_gradient_value
+end module dualsig_expression_fields
