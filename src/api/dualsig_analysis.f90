@@ -22,6 +22,7 @@ module dualsig_analysis
   use dualsig_strings, only: itoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter
+  use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_sparse_direct, only: ORDERING_AMD
   use dualsig_ordering_geometric, only: select_ordering
@@ -259,8 +260,8 @@ contains
     mesh_from = mesh_t()
   end subroutine move_mesh
 
-  !> One level on an%mesh from the start an%u: assemble, constraints, primal solve, exact
-  !> errors, dual solve and bounds.
+  !> One level on an%mesh from the start an%u: the geometry checks (mesh_check_geometry),
+  !> assemble, constraints, primal solve, exact errors, dual solve and bounds.
   subroutine solve_level(an, res, st)
     type(analysis_t), intent(inout) :: an
     type(level_result_t), intent(inout) :: res
@@ -269,6 +270,13 @@ contains
     associate (mesh => an%mesh, pb => an%problem)
       res%nnode = mesh%nnode
       res%ntri = mesh%ntri
+      ! no solve on a folded, doubled or broken mesh: the bounds assume triangles tiling the domain once
+      call mesh_check_geometry(mesh, st)
+      if (.not. is_ok(st)) then
+        if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(len('mesh: ') + 1:)
+        st%msg = 'analysis: the mesh of level ' // itoa(an%level) // ': ' // st%msg
+        return
+      end if
       res%h = mesh_h(mesh)
       call primal_assemble(mesh, pb%kind, pb%f, an%load_rule, sys)
       call primal_constraints(mesh, pb%kind, pb%gamma_u, pb%gamma_a, sys%kind, sys%bnd, st, &

@@ -234,8 +234,8 @@ contains
 
   !> The coarse mesh of &mesh: a generator, or a file (format 'auto': a name ending in .msh
   !> is Gmsh; a Triangle file (.node, .ele, .poly, .edge) or a base name with .node and .ele
-  !> files is Triangle; anything else the dualsig format).  Notes of the readers and
-  !> reoriented triangles are printed on unit.
+  !> files is Triangle; anything else the dualsig format).  Notes of the readers and a
+  !> note for a mesh whose triangles were all clockwise (all reoriented) are printed on unit.
   subroutine coarse_mesh(cfg, mesh, phys, st, unit)
     type(run_config_t), intent(in) :: cfg
     type(mesh_t), intent(out) :: mesh
@@ -279,8 +279,8 @@ contains
       end if
     end select
     if (st%code /= 0) return
-    if (nflip > 0) write (unit, '(a,i0,a)') "warning: mesh file '" // trim(cfg%mesh_file) // "': ", nflip, &
-      ' clockwise triangle(s) reoriented (expected counter-clockwise vertices; n2 and n3 swapped)'
+    if (nflip > 0) write (unit, '(a,i0,a)') "note: mesh file '" // trim(cfg%mesh_file) // "': all ", nflip, &
+      ' triangles are clockwise: all reoriented (n2 and n3 swapped; counter-clockwise vertices are the convention)'
   end subroutine coarse_mesh
 
   !> Boundary parts by Gmsh physical-curve name: the markers are the physical tags.

@@ -214,9 +214,10 @@ end subroutine dsbqp
 !> (no refinement) of the analysis pipeline (dualsig_analysis), as the driver runs it:
 !>   IPROB 1 (P1): -Lap u + u = f, Signorini conditions on all of Gamma;
 !>   IPROB 2 (P2): -Lap u = f, u = 0 on Gamma_u (IBMARK 1), Signorini on Gamma_a (IBMARK 2).
-!> Mesh: XY(2,NNODE) node coordinates; ITRI(3,NTRI) vertex numbers, either orientation
-!> (clockwise triangles are used with vertices 2 and 3 swapped, as the mesh reader does;
-!> Q is still returned in the caller's vertex order); IBEDGE(2,NBEDGE) the boundary sides,
+!> Mesh: XY(2,NNODE) node coordinates; ITRI(3,NTRI) vertex numbers, all counter-clockwise
+!> or all clockwise (then all are used with vertices 2 and 3 swapped, as the mesh readers
+!> do; Q is still returned in the caller's vertex order; a mix is a folded mesh, INFO = -5,
+!> as are duplicate triangles, several pieces and overlapping triangles); IBEDGE(2,NBEDGE) the boundary sides,
 !> either orientation, each once, ALL of them (for IPROB 1, NBEDGE = 0 lets DSSIGN find
 !> them); IBMARK(NBEDGE) 1 = Gamma_u, 2 = Gamma_a (IPROB 1: only 2).
 !> FSRC: EXTERNAL DOUBLE PRECISION FUNCTION FSRC(X, Y), the source f; it is evaluated at

@@ -13,6 +13,7 @@ module dualsig_f77_adapter
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter
+  use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
   use dualsig_fields, only: scalar_field, function_field
   use dualsig_dual_p2_field, only: dual_p2_lambda
@@ -155,8 +156,8 @@ contains
   end subroutine dssign_print
 
   !> Arguments 1 to 8 of DSSIGN, in order, and the mesh they describe (triangles made
-  !> counter-clockwise, flipped marks those swapped; boundary sides found for P1 when
-  !> NBEDGE = 0).  arg = 0 when all hold, else the first bad argument and msg.
+  !> counter-clockwise: all or none were clockwise, flipped marks those swapped; boundary
+  !> sides found for P1 when NBEDGE = 0).  arg = 0 when all hold, else the first bad argument and msg.
   subroutine dssign_mesh(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, mesh, flipped, arg, msg)
     integer, intent(in) :: iprob, nnode, ntri
     real(dp), intent(in) :: xy(:,:)
@@ -226,8 +227,9 @@ contains
     end if
   end subroutine check_sizes
 
-  !> ITRI (5): vertex numbers in range, three distinct vertices, non-zero area; clockwise
-  !> triangles get vertices 2 and 3 swapped (as the mesh readers do), flipped(t) set.
+  !> ITRI (5): vertex numbers in range, three distinct vertices, non-zero area, no triangle
+  !> twice; one orientation: all counter-clockwise, or all clockwise (then all get vertices
+  !> 2 and 3 swapped, as the mesh readers do, and flipped is set); a mix is a folded mesh.
   subroutine check_triangles(xy, itri, mesh, flipped, arg, msg)
     real(dp), intent(in) :: xy(:,:)
     integer, intent(in) :: itri(:,:)
@@ -236,7 +238,8 @@ contains
     integer, intent(out) :: arg
     character(len=:), allocatable, intent(out) :: msg
     real(dp) :: area_tol
-    integer :: t, nnode
+    integer :: t, nnode, nflip
+    type(status_t) :: st
     arg = 0
     nnode = size(xy, 2)
     mesh%nnode = nnode
@@ -260,11 +263,15 @@ contains
         return
       end if
       arg = 0
-      if (mesh_triangle_area(mesh, t) < 0.0_dp) then
-        mesh%tri(2:3, t) = itri([3, 2], t)
-        flipped(t) = .true.
-      end if
     end do
+    call mesh_check_duplicates(mesh, st)
+    if (st%code == 0) call mesh_orient_triangles(mesh, nflip, st)
+    if (st%code /= 0) then
+      arg = 5
+      msg = st%msg(len('mesh: ') + 1:)
+      return
+    end if
+    flipped = nflip > 0
   end subroutine check_triangles
 
   !> The side table of the mesh's triangles (ITRI, argument 5: no side in more than two
@@ -532,7 +539,8 @@ contains
     end if
   end subroutine read_real_options
 
-  !> One level of the analysis on the checked mesh: the topology, the P2 assumption (A2)
+  !> One level of the analysis on the checked mesh: the topology and the geometry checks
+  !> (mesh_check_geometry: one piece, no overlap; arg 5 on failure), the P2 assumption (A2)
   !> when the dual runs (arg 5 / 8 on failure), the primal solve from u (zero unless
   !> IOPT(9) = 1), the dual field and bounds; u, q (the dual field at the caller's
   !> vertices), bounds and info as documented at DSSIGN.
@@ -553,6 +561,7 @@ contains
     type(level_result_t) :: res
     type(status_t) :: st
     call mesh_build_topology(mesh, st)
+    if (st%code == DS_OK) call mesh_check_geometry(mesh, st)
     if (st%code /= DS_OK) then
       call fail_arg(opt, info, 5, st%msg)
       return

@@ -22,17 +22,17 @@
 !> Boundary markers: the marker of a boundary side is the physical tag (> 0) of the line
 !> element on it.  A boundary side without such a line, or with two lines of different
 !> physical tags, is an error.  Lines on interior sides and lines that are no side of a
-!> triangle are ignored with a note.  Triangle orientation: clockwise triangles are
-!> reoriented and counted (`nflipped`); zero-area triangles and duplicate nodes are
-!> rejected as by the dualsig text reader.  Every error names the file, the line and what
-!> was expected.
+!> triangle are ignored with a note.  Triangle orientation: triangles all clockwise are
+!> reoriented and counted (`nflipped`); a mix of orientations (a folded mesh), zero-area
+!> triangles, duplicate nodes, several pieces and overlapping triangles are rejected as by
+!> the dualsig text reader.  Every error names the file, the line and what was expected.
 module dualsig_mesh_gmsh
   use dualsig_kinds, only: dp, i8, geom_rel_tol
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t, mesh_diameter
   use dualsig_mesh_io, only: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, &
                              mesh_reader_expect, mesh_reader_field, mesh_reader_int, mesh_reader_real, &
-                             mesh_reader_fail, mesh_quote, mesh_check_geometry, mesh_finish_topology, &
+                             mesh_reader_fail, mesh_quote, mesh_check_file_geometry, mesh_finish_topology, &
                              mesh_drop_unused_nodes, mesh_mark_boundary, merge_sort_pairs, &
                              mesh_note_len
   use dualsig_strings, only: itoa, rtoa
@@ -887,7 +887,7 @@ contains
       cand(:, k) = new_index(g%lin(:, k))
     end do
 
-    call mesh_check_geometry(path, mesh, g%node_line, g%tri_line, nflip, st, g%node_id, g%tri_id)
+    call mesh_check_file_geometry(path, mesh, g%node_line, g%tri_line, nflip, st, g%node_id, g%tri_id)
     if (present(nflipped)) nflipped = nflip
     if (st%code /= 0) return
     call mesh_mark_boundary(path, mesh, cand, g%lin_phys(1:g%nl), g%lin_line(1:g%nl), &
@@ -895,7 +895,7 @@ contains
     if (st%code /= 0) return
     if (ninterior > 0) call note(itoa(ninterior) // ' line element(s) on interior sides ignored')
     if (nstray > 0) call note(itoa(nstray) // ' line element(s) that are no side of a triangle ignored')
-    call mesh_finish_topology(path, mesh, st, g%node_line, g%tri_line)
+    call mesh_finish_topology(path, mesh, st, g%node_line, g%tri_line, node_id=g%node_id, tri_id=g%tri_id)
 
   contains
 

@@ -7,7 +7,7 @@
 !>     nodes N
 !>     <id> <x> <y>          (N lines, ids 1..N in order)
 !>     triangles T
-!>     <id> <n1> <n2> <n3>   (T lines; counter-clockwise expected; clockwise triangles are reoriented)
+!>     <id> <n1> <n2> <n3>   (T lines; all counter-clockwise, or all clockwise: then all are reoriented)
 !>     boundary B
 !>     <id> <n1> <n2> <marker>   (B lines; marker integer > 0)
 !>
@@ -22,8 +22,14 @@
 !> - Node indices n1, n2, n3 refer to node ids (1..N).  Two nodes whose coordinates agree
 !>   within geom_rel_tol times the bounding-box diameter (in both x and y) are rejected as
 !>   duplicates; triangles with |area| <= geom_rel_tol * diameter**2 are rejected.
-!> - A clockwise triangle is reoriented by swapping n2 and n3; the reader reports how many
-!>   it reoriented (optional argument `nflipped`), the caller decides whether to warn.
+!> - The triangles are all counter-clockwise, or all clockwise: then every one is reoriented
+!>   by swapping n2 and n3, and the reader reports how many (optional argument `nflipped`;
+!>   the caller decides whether to print a note).  A mix of orientations is a folded mesh
+!>   (e.g. a node moved across a side of a neighbour) and an error naming the first
+!>   inverted triangle and how many there are.  Also rejected (dualsig_mesh_check): a
+!>   triangle listed twice (same three vertices in any order), triangles in several pieces
+!>   (joined by no side), and triangle areas that do not sum to the area the boundary
+!>   loops enclose (overlapping triangles).
 !> - The boundary section lists every boundary side of the triangulation once, in any order
 !>   and either orientation, with an integer marker > 0 (it selects the boundary
 !>   condition).  The writer lists them with the domain on their left.
@@ -34,7 +40,8 @@
 !>
 !> The module also holds what the Gmsh and Triangle readers share with this one: a line
 !> reader for records with any number of fields (`mesh_text_reader_t`), the number parsers,
-!> the geometric checks and reorientation (`mesh_check_geometry`), the attachment of
+!> the geometric checks and orientation (`mesh_check_file_geometry`), the topology and the
+!> geometry checks after it (`mesh_finish_topology`), the attachment of
 !> boundary markers from edges listed in a file (`mesh_mark_boundary`) and the removal of
 !> nodes no triangle uses (`mesh_drop_unused_nodes`).
 module dualsig_mesh_io
@@ -42,6 +49,7 @@ module dualsig_mesh_io
   use dualsig_kinds, only: dp, i8, geom_rel_tol
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_IO
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
+  use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_strings, only: itoa
   implicit none
   private
@@ -50,7 +58,7 @@ module dualsig_mesh_io
   ! shared with the Gmsh and Triangle readers (dualsig_mesh_gmsh, dualsig_mesh_triangle)
   public :: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, mesh_reader_expect, &
             mesh_reader_field, mesh_reader_int, mesh_reader_real, mesh_reader_fail, mesh_quote
-  public :: mesh_check_geometry, mesh_finish_topology, mesh_drop_unused_nodes, mesh_mark_boundary
+  public :: mesh_check_file_geometry, mesh_finish_topology, mesh_drop_unused_nodes, mesh_mark_boundary
   public :: merge_sort_pairs, lower_bound, mesh_note_len
 
   character(len=*), parameter :: magic = 'dualsig-mesh'   !! first word of the header line
@@ -234,7 +242,7 @@ contains
     end if
 
     ! --- geometric checks, orientation, topology ---
-    call mesh_check_geometry(rd%path, mesh, node_line, tri_line, nflip, st)
+    call mesh_check_file_geometry(rd%path, mesh, node_line, tri_line, nflip, st)
     if (st%code /= 0) return
     call mesh_finish_topology(rd%path, mesh, st, node_line, tri_line, bnd_line)
   end subroutine read_body
@@ -981,14 +989,17 @@ contains
     s = quote(text)
   end function mesh_quote
 
-  !> Geometric checks of a mesh read from file `path` (nodes and triangles set): no two nodes
-  !> within geom_rel_tol * diameter in x and y, no triangle with |area| <= geom_rel_tol *
-  !> diameter**2.  Clockwise triangles (negative signed area) are made counter-clockwise by
-  !> swapping their 2nd and 3rd vertex and counted in nflip.  node_line / tri_line: the file
-  !> line of each node / triangle; node_id / tri_id (optional): the ids the file gives them
-  !> (default 1, 2, ...), used in the messages; tri_path (optional): the file of the
-  !> triangles when it is not `path` (Triangle's .ele next to its .node).
-  subroutine mesh_check_geometry(path, mesh, node_line, tri_line, nflip, st, node_id, tri_id, tri_path)
+  !> Geometric checks of a mesh read from file `path` (nodes and triangles set) before its
+  !> topology: no two nodes within geom_rel_tol * diameter in x and y, no triangle with
+  !> |area| <= geom_rel_tol * diameter**2, no triangle twice (mesh_check_duplicates), and
+  !> one orientation (mesh_orient_triangles): all
+  !> triangles counter-clockwise, or all clockwise (then all are swapped, nflip counts
+  !> them); a mix is a folded mesh and an error naming the first inverted triangle.
+  !> node_line / tri_line: the file line of each node / triangle; node_id / tri_id
+  !> (optional): the ids the file gives them (default 1, 2, ...), used in the messages;
+  !> tri_path (optional): the file of the triangles when it is not `path` (Triangle's .ele
+  !> next to its .node).
+  subroutine mesh_check_file_geometry(path, mesh, node_line, tri_line, nflip, st, node_id, tri_id, tri_path)
     character(len=*), intent(in) :: path
     type(mesh_t), intent(inout) :: mesh
     integer, intent(in) :: node_line(:), tri_line(:)
@@ -997,43 +1008,51 @@ contains
     integer, intent(in), optional :: node_id(:), tri_id(:)
     character(len=*), intent(in), optional :: tri_path
     type(reader_t) :: rd
-    integer :: i, id
+    integer :: i, id, bad_tri
     real(dp) :: area, area_tol
 
     nflip = 0
     rd%path = path
     call check_duplicate_nodes(rd, mesh, node_line, st, node_id)
     if (st%code /= 0) return
+    if (present(tri_path)) rd%path = tri_path
     area_tol = geom_rel_tol * mesh_diameter(mesh)**2
     do i = 1, mesh%ntri
       area = mesh_triangle_area(mesh, i)
       if (abs(area) <= area_tol) then
         id = i
         if (present(tri_id)) id = tri_id(i)
-        if (present(tri_path)) rd%path = tri_path
         rd%lineno = tri_line(i)
         call fail(rd, 'triangle ' // itoa(id) // ' has zero area (|area| <= ' // rtoa(area_tol) // &
           '; expected three non-collinear vertices)', st)
         return
       end if
-      if (area < 0.0_dp) then
-        mesh%tri(2:3, i) = mesh%tri([3, 2], i)
-        nflip = nflip + 1
-      end if
     end do
-  end subroutine mesh_check_geometry
+    call mesh_check_duplicates(mesh, st, bad_tri, tri_id, node_id)
+    if (st%code == 0) call mesh_orient_triangles(mesh, nflip, st, bad_tri, tri_id, node_id)
+    if (st%code /= 0) call name_file_line(rd%path, st, bad_tri, tri_line)
+  end subroutine mesh_check_file_geometry
 
-  !> Build the topology of a mesh read from file `path` (mesh_build_topology); an error
-  !> message names the file and, when the optional line maps are given (file line of each
-  !> node, triangle, listed boundary edge), the line of the offending item.
-  subroutine mesh_finish_topology(path, mesh, st, node_line, tri_line, bnd_line)
+  !> Finish a mesh read from file `path`: no duplicate triangles (mesh_check_duplicates),
+  !> the topology (mesh_build_topology), then the geometry (mesh_check_geometry: one
+  !> orientation, one piece, the triangle areas summing to the area the boundary loops
+  !> enclose).  An error message names the file and, when the optional line maps are
+  !> given (file line of each node, triangle, listed boundary edge), the line of the
+  !> offending item; node_id / tri_id (optional) are the file's ids of nodes and
+  !> triangles, used in the geometry messages.
+  subroutine mesh_finish_topology(path, mesh, st, node_line, tri_line, bnd_line, node_id, tri_id)
     character(len=*), intent(in) :: path
     type(mesh_t), intent(inout) :: mesh
     type(status_t), intent(inout) :: st
     integer, intent(in), optional :: node_line(:), tri_line(:), bnd_line(:)
+    integer, intent(in), optional :: node_id(:), tri_id(:)
     integer :: bad_tri, bad_bedge, bad_node
     character(len=:), allocatable :: where
-    call mesh_build_topology(mesh, st, bad_tri, bad_bedge, bad_node)
+    bad_bedge = 0
+    bad_node = 0
+    call mesh_check_duplicates(mesh, st, bad_tri, tri_id, node_id)
+    if (st%code == 0) call mesh_build_topology(mesh, st, bad_tri, bad_bedge, bad_node)
+    if (st%code == 0) call mesh_check_geometry(mesh, st, bad_tri, tri_id, node_id)
     if (st%code /= 0) then
       ! keep the code; name the file (and line) instead of the generic 'mesh: ' prefix
       if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(len('mesh: ') + 1:)
@@ -1048,6 +1067,20 @@ contains
       st%msg = where // ': ' // st%msg
     end if
   end subroutine mesh_finish_topology
+
+  !> Replace the 'mesh: ' prefix of an error message by the file and the line of triangle
+  !> bad_tri (when known).
+  subroutine name_file_line(path, st, bad_tri, tri_line)
+    character(len=*), intent(in) :: path
+    type(status_t), intent(inout) :: st
+    integer, intent(in) :: bad_tri
+    integer, intent(in) :: tri_line(:)
+    character(len=:), allocatable :: where
+    if (index(st%msg, 'mesh: ') == 1) st%msg = st%msg(len('mesh: ') + 1:)
+    where = "mesh file '" // path // "'"
+    if (bad_tri > 0 .and. bad_tri <= size(tri_line)) where = where // ', line ' // itoa(tri_line(bad_tri))
+    st%msg = where // ': ' // st%msg
+  end subroutine name_file_line
 
   !> Remove the nodes that no triangle uses (renumbering the rest in their order).
   !> new_index(i) is the new number of old node i, 0 when it was removed; ndropped counts

@@ -20,8 +20,10 @@
 !> marker 0 means none, and a boundary side without a marker is an error.  Segments on
 !> interior sides are ignored with a note (edges of a .edge file on interior sides silently:
 !> the file lists every edge); a segment or edge that is no side of a triangle is an error.
-!> Nodes no triangle uses are dropped with a note.  Clockwise triangles are reoriented and
-!> counted; zero-area triangles and duplicate nodes are rejected.  Every error names the
+!> Nodes no triangle uses are dropped with a note.  Triangles all clockwise are reoriented
+!> and counted; a mix of orientations (a folded mesh), zero-area and duplicate triangles,
+!> duplicate nodes, several pieces and overlapping triangles are rejected as by the dualsig
+!> text reader.  Every error names the
 !> file, the line and what was expected.
 module dualsig_mesh_triangle
   use dualsig_kinds, only: dp
@@ -29,7 +31,7 @@ module dualsig_mesh_triangle
   use dualsig_mesh, only: mesh_t
   use dualsig_mesh_io, only: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, &
                              mesh_reader_expect, mesh_reader_int, mesh_reader_real, mesh_reader_fail, &
-                             mesh_quote, mesh_check_geometry, mesh_finish_topology, mesh_drop_unused_nodes, &
+                             mesh_quote, mesh_check_file_geometry, mesh_finish_topology, mesh_drop_unused_nodes, &
                              mesh_mark_boundary, mesh_note_len
   use dualsig_strings, only: itoa
   implicit none
@@ -90,7 +92,7 @@ contains
     character(len=:), allocatable :: base
     type(mesh_text_reader_t) :: rpoly, rd
     type(node_list_t) :: nodes
-    integer, allocatable :: tri_line(:), tri_id(:), cand(:,:), cand_marker(:), cand_line(:), new_index(:)
+    integer, allocatable :: tri_line(:), tri_id(:), cand(:,:), cand_marker(:), cand_line(:), new_index(:), node_id(:)
     integer :: npoly, nbmark, k, nflip, ndropped, ninterior, nstray
     logical :: is_triangle, has_poly, has_edge
     character(len=:), allocatable :: what
@@ -161,15 +163,16 @@ contains
     do k = 1, size(cand, 2)
       cand(:, k) = new_index(cand(:, k))
     end do
-    call mesh_check_geometry(nodes%path, mesh, nodes%line, tri_line, nflip, st, &
-                             pack([(k + nodes%base - 1, k=1, size(new_index))], new_index > 0), tri_id, &
-                             base // '.ele')
+    node_id = pack([(k + nodes%base - 1, k=1, size(new_index))], new_index > 0)
+    call mesh_check_file_geometry(nodes%path, mesh, nodes%line, tri_line, nflip, st, node_id, tri_id, &
+                                  base // '.ele')
     if (present(nflipped)) nflipped = nflip
     if (st%code == 0) call mesh_mark_boundary(base // merge('.poly', '.edge', has_poly), mesh, cand, cand_marker, &
                                               cand_line, what, .false., ninterior, nstray, st)
     if (st%code == 0 .and. has_poly .and. ninterior > 0) nt = [character(len=mesh_note_len) :: nt, &
       itoa(ninterior) // ' segment(s) on interior sides ignored']
-    if (st%code == 0) call mesh_finish_topology(base // '.ele', mesh, st, tri_line=tri_line)
+    if (st%code == 0) call mesh_finish_topology(base // '.ele', mesh, st, tri_line=tri_line, node_id=node_id, &
+                                                tri_id=tri_id)
     if (present(notes)) notes = nt
   end subroutine mesh_read_triangle
 
