@@ -211,6 +211,8 @@ contains
     aset_pipeline%dual_tol_h2 = 0.0_dp
     aset_pipeline%bounds = scene%problem == PROBLEM_P1
     aset_pipeline%keep_fields = .true.
+    ! the baselines below factorise the matrix of the paper's space: time the same space
+    aset_pipeline%dual_space = 'paper'
     call analysis_start(an, pb, aset_pipeline, st)
     do level = 1, lmax
       call analysis_next_level(an, res, st)

@@ -36,6 +36,8 @@ module dualsig_analysis
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
+  use dualsig_problem_dual_hdiv, only: dual_hdiv_solve
+  use dualsig_estimate_dual_hdiv, only: dual_hdiv_bounds_load, dual_hdiv_errors
   use dualsig_estimate_errors, only: p1_error_norms
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds_load, dual_p1_errors
   use dualsig_load_data, only: load_data_t, load_data_build
@@ -46,6 +48,7 @@ module dualsig_analysis
   public :: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t
   public :: analysis_start, analysis_next_level, analysis_free
   public :: load_degree, exact_degree, bound_degree_p1, bound_degree_p2, max_level_warnings
+  public :: dual_spaces
 
   !> Degree of the quadrature of the load vectors (>= 5 as required; Radon's rule).
   integer, parameter :: load_degree = 5
@@ -59,6 +62,9 @@ module dualsig_analysis
   !> Lanczos settings of the automatic SOR parameter.
   integer, parameter :: lanczos_max_steps = 400
   real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
+  !> The dual spaces of P1: 'hdiv' (Raviart-Thomas of order 1, div q piecewise linear; the
+  !> default) and 'paper' (continuous piecewise-linear vector fields, Section 3).
+  character(len=*), parameter :: dual_spaces = 'hdiv, paper'
   !> Warnings a level can carry (primal limit, dual limit, dual not admissible).
   integer, parameter :: max_level_warnings = 3
 
@@ -99,6 +105,8 @@ module dualsig_analysis
     !> P2: the particular field lambda^f, 'polynomial' (every bound integral exact, f - f_T an
     !> oscillation term) or 'stream' (the paper's lambda_bar + curl omega)
     character(len=16) :: dual_particular = 'polynomial'
+    !> P1: the dual space, 'hdiv' (RT1, tight bounds) or 'paper' (the [V_h]^2 of Section 3); P2 ignores it
+    character(len=16) :: dual_space = 'hdiv'
     !> Largest relative divergence defect of the P2 dual field for which est is certified.
     real(dp) :: admissible_defect = 1.0e-10_dp
     logical :: keep_fields = .false.              !! return the dual field in the level result
@@ -127,6 +135,7 @@ module dualsig_analysis
     ! dual analysis (has_dual)
     logical :: has_dual = .false.
     character(len=16) :: dual_method = ''
+    character(len=16) :: dual_space = ''    !! P1: 'hdiv' or 'paper'
     logical :: dual_limit = .false.         !! the dual solver stopped at its iteration limit
     integer :: dual_iters = 0
     real(dp) :: dual_seconds = 0.0_dp
@@ -141,7 +150,8 @@ module dualsig_analysis
     real(dp) :: err_q_norm = 0.0_dp         !! with has_exact, P1: (err_q^2 + err_div^2)^(1/2)
     type(dual_p1_result_t) :: dual_p1       !! solver report (P1)
     type(dual_p2_result_t) :: dual_p2       !! solver report (P2)
-    real(dp), allocatable :: q(:)           !! keep_fields, P1: q_h, (2, nnode) flattened
+    real(dp), allocatable :: q(:)           !! keep_fields, P1 'paper': q_h at the nodes, (2, nnode) flattened
+    real(dp), allocatable :: q_hdiv(:)      !! keep_fields, P1 'hdiv': the RT1 unknowns (dualsig_assembly_dual_hdiv)
     type(dual_p2_field_t) :: lambda         !! keep_fields, P2: lambda_h
     ! warnings of this level (codes DS_WARN_*, messages without the level)
     integer :: nwarnings = 0
@@ -195,6 +205,13 @@ contains
           (problem%kind /= PROBLEM_P1 .and. method == 'active_set')) then
         call set_error(st, DS_ERR_INPUT, "analysis: dual method '" // method // "' does not apply to problem P" // &
           itoa(problem%kind) // '; P1: active_set or uzawa, P2: augmented or uzawa')
+        return
+      end if
+    end if
+    if (problem%kind == PROBLEM_P1 .and. settings%dual) then
+      if (settings%dual_space /= 'hdiv' .and. settings%dual_space /= 'paper') then
+        call set_error(st, DS_ERR_INPUT, "analysis: dual space '" // trim(settings%dual_space) // &
+          "' (expected 'hdiv' or 'paper')")
         return
       end if
     end if
@@ -391,8 +408,9 @@ contains
     tol = max(settings%dual_tol, settings%dual_tol_h2 * (h / diameter)**2)
   end function dual_tolerance
 
-  !> P1 (Section 3): the feasible continuous field q_h (warm-started from u_h by
-  !> complementarity), the bounds (6.13), (6.14) and, with an exact solution, the dual errors.
+  !> P1 (Section 3): the feasible dual field q_h in the space of settings%dual_space
+  !> ('hdiv': RT1, 'paper': continuous P1 vector fields), warm-started from u_h by
+  !> complementarity, the bounds (6.13), (6.14) and, with an exact solution, the dual errors.
   subroutine dual_level_p1(an, res, st)
     type(analysis_t), intent(inout) :: an
     type(level_result_t), intent(inout) :: res
@@ -402,24 +420,56 @@ contains
     type(load_data_t) :: load
     type(status_t) :: st_dual
     real(dp), allocatable :: q(:)
+    logical :: hdiv
+    hdiv = an%settings%dual_space == 'hdiv'
     dset%method = an%dual_method
     dset%rho = an%settings%dual_rho
     dset%max_iter = an%settings%dual_max_iter
     dset%ordering = an%settings%ordering
     dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
     res%dual_method = an%dual_method
+    res%dual_space = an%settings%dual_space
     res%dual_seconds = wall_seconds()
-    call dual_p1_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
+    if (hdiv) then
+      call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
+    else
+      call dual_p1_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
+    end if
     res%dual_seconds = wall_seconds() - res%dual_seconds
     res%dual_limit = is_warning(st_dual)
     call take_status(st_dual, res, st)
     if (.not. is_ok(st)) return
     res%has_dual = .true.
     res%dual_iters = res%dual_p1%iterations
-    if (an%settings%keep_fields) res%q = q
+    if (an%settings%keep_fields) then
+      if (hdiv) then
+        res%q_hdiv = q
+      else
+        res%q = q
+      end if
+    end if
     if (.not. an%settings%bounds) return
     call level_load_data(an, load, res, st)
     if (.not. is_ok(st)) return
+    if (hdiv) then
+      call hdiv_bounds_level(an, q, load, res, bounds)
+    else
+      call paper_bounds_level(an, q, load, res, bounds)
+    end if
+    res%est = bounds%est
+    res%energy_lo = bounds%energy_lo
+    res%energy_hi = bounds%energy_hi
+    call move_alloc(bounds%est_elem, res%est_elem)
+    res%certified = res%load_unresolved == 0
+  end subroutine dual_level_p1
+
+  !> The bounds of P1 and the dual errors with the continuous field q of Section 3.
+  subroutine paper_bounds_level(an, q, load, res, bounds)
+    type(analysis_t), intent(in) :: an
+    real(dp), intent(in) :: q(:)
+    type(load_data_t), intent(in) :: load
+    type(level_result_t), intent(inout) :: res
+    type(dual_p1_bounds_t), intent(out) :: bounds
     associate (pb => an%problem)
       call dual_p1_bounds_load(an%mesh, an%u, q, load, bounds)
       if (res%has_exact) then
@@ -432,12 +482,28 @@ contains
         end if
       end if
     end associate
-    res%est = bounds%est
-    res%energy_lo = bounds%energy_lo
-    res%energy_hi = bounds%energy_hi
-    call move_alloc(bounds%est_elem, res%est_elem)
-    res%certified = res%load_unresolved == 0
-  end subroutine dual_level_p1
+  end subroutine paper_bounds_level
+
+  !> The bounds of P1 and the dual errors with the RT1 field q.
+  subroutine hdiv_bounds_level(an, q, load, res, bounds)
+    type(analysis_t), intent(in) :: an
+    real(dp), intent(in) :: q(:)
+    type(load_data_t), intent(in) :: load
+    type(level_result_t), intent(inout) :: res
+    type(dual_p1_bounds_t), intent(out) :: bounds
+    associate (pb => an%problem)
+      call dual_hdiv_bounds_load(an%mesh, an%u, q, load, bounds)
+      if (res%has_exact) then
+        if (allocated(pb%x_breaks)) then
+          call dual_hdiv_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
+                                res%err_q_norm, pb%x_breaks)
+        else
+          call dual_hdiv_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
+                                res%err_q_norm)
+        end if
+      end if
+    end associate
+  end subroutine hdiv_bounds_level
 
   !> The load data of the level (dualsig_load_data: per-triangle mean, moments and
   !> oscillation of f, integrated until converged); triangles where they did not converge

@@ -23,6 +23,7 @@ module dualsig_driver
   use dualsig_quadrature, only: tri_rule
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
   use dualsig_dual_p2_field, only: dual_p2_lambda
+  use dualsig_assembly_dual_hdiv, only: hdiv_point_value
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_estimate_errors, only: exact_energy
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
@@ -345,6 +346,7 @@ contains
     settings%dual_max_iter = cfg%dual_max_iter
     settings%dual_inner = cfg%dual_inner
     settings%dual_particular = cfg%dual_particular
+    settings%dual_space = cfg%dual_space
     settings%keep_fields = cfg%vtk
   end subroutine settings_from_config
 
@@ -369,10 +371,10 @@ contains
     if (.not. res%has_dual) return
     if (run%problem%kind == PROBLEM_P1) then
       associate (d => res%dual_p1)
-        write (unit, '(a,i0,a,i0,a,a,a,i0,a,i0,a,i0,a,es9.2,a,i0,a,i0)') '  dual level ', res%level, ': ', &
+        write (unit, '(a,i0,a,i0,a,a,a,i0,a,i0,a,i0,a,es9.2,a,i0,a,i0,a,a)') '  dual level ', res%level, ': ', &
           d%iterations, ' iterations (', trim(res%dual_method), '), factorisations ', d%factorisations, &
           ', bordered ', d%lowrank_solves, ', nnz(L) = ', d%nnz_factor, ', residual ', d%residual, &
-          ', constraints ', d%nconstraints, ', active ', d%nactive
+          ', constraints ', d%nconstraints, ', active ', d%nactive, ', space ', trim(res%dual_space)
         if (res%dual_method == 'uzawa') write (unit, '(a,es10.3,a,es10.3,a,i0)') '    rho = ', d%rho, &
           ', lambda_max(B A^-1 B^T) ~ ', d%lambda_max, ', retries ', d%retries
         write (unit, '(a,a)') '    ordering ', trim(d%ordering)
@@ -458,7 +460,17 @@ contains
       vfields%u_exact = [(run%problem%u_exact%value(mesh%xy(1, i), mesh%xy(2, i)), i=1, mesh%nnode)]
     vfields%contact = vtk_contact_status(res%bound_kind, res%bound, res%u, contact_rel_tol)
     if (res%has_dual) then
-      if (run%problem%kind == PROBLEM_P1) then
+      if (run%problem%kind == PROBLEM_P1 .and. allocated(res%q_hdiv)) then
+        ! the RT1 field (discontinuous tangential part) per triangle, as for P2
+        allocate (vfields%lambda_centroid(2, mesh%ntri), vfields%lambda_vertices(6, mesh%ntri))
+        do j = 1, mesh%ntri
+          vfields%lambda_centroid(:, j) = hdiv_point_value(mesh, res%q_hdiv, j, [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp)
+          do i = 1, 3
+            vfields%lambda_vertices(2 * i - 1:2 * i, j) = hdiv_point_value(mesh, res%q_hdiv, j, &
+              merge(1.0_dp, 0.0_dp, [1, 2, 3] == i))
+          end do
+        end do
+      else if (run%problem%kind == PROBLEM_P1) then
         vfields%q_h = reshape(res%q, [2, mesh%nnode])
       else
         ! lambda^h at the centroid and, from inside the triangle, at its three vertices
@@ -573,8 +585,11 @@ contains
       end if
       dual_method = trim(cfg%dual_method)
       if (dual_method == 'default') dual_method = trim(merge('active_set', 'augmented ', scene%problem == PROBLEM_P1))
-      if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1) then
-        parts = parts // '; dual analysis: P1 vector fields, ' // dual_method // &
+      if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1 .and. cfg%dual_space == 'hdiv') then
+        parts = parts // '; dual analysis: space hdiv (RT1 fields, q.nu >= 0 at boundary edge ends), ' // dual_method // &
+          ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
+      else if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1) then
+        parts = parts // '; dual analysis: space paper (continuous P1 vector fields), ' // dual_method // &
           ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
       else if (cfg%dual_enabled) then
         parts = parts // '; dual analysis: equilibrium elements, ' // dual_method

@@ -641,6 +641,8 @@ contains
     settings%dual_penalty = opt%penalty
     settings%admissible_defect = opt%admissible
     settings%keep_fields = .true.
+    ! Q(6, NTRI) is documented as the continuous nodal field of Section 3: DSSIGN keeps that space
+    settings%dual_space = 'paper'
   end function settings_of
 
   !> INFO bits of the level's warnings, and the messages IOPT(4) asks for.

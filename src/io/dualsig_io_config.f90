@@ -34,7 +34,7 @@ module dualsig_io_config
   character(len=*), parameter :: solver_items = &
     'method omega omega_auto tol max_iter check_every nested'
   character(len=*), parameter :: dual_items = &
-    'enabled method rho tol tol_h2 max_iter ordering inner particular'
+    'enabled method rho tol tol_h2 max_iter ordering inner particular space'
 
   type :: run_config_t
     character(len=:), allocatable :: source_file   !! the namelist file
@@ -76,6 +76,7 @@ module dualsig_io_config
     character(len=16) :: dual_ordering = 'nd'     !! every CHOLMOD factorisation of the run
     character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
     character(len=16) :: dual_particular = 'polynomial' !! P2 lambda^f: 'polynomial' or 'stream' (the paper's)
+    character(len=16) :: dual_space = 'hdiv'      !! P1: 'hdiv' (RT1, tight bounds) or 'paper' (Section 3)
   end type run_config_t
 
   type :: group_t
@@ -182,7 +183,7 @@ contains
       ''', rho = ' // rtoa(cfg%dual_rho) // ', tol = ' // rtoa(cfg%dual_tol) // ', tol_h2 = ' // &
       rtoa(cfg%dual_tol_h2) // ', max_iter = ' // itoa(cfg%dual_max_iter) // ', ordering = ''' // &
       trim(cfg%dual_ordering) // ''', inner = ''' // trim(cfg%dual_inner) // ''', particular = ''' // &
-      trim(cfg%dual_particular) // ''' /'
+      trim(cfg%dual_particular) // ''', space = ''' // trim(cfg%dual_space) // ''' /'
     if (any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) then
       ! the names continue the &run group on a line of their own
       lines(1) = lines(1)(1:len_trim(lines(1)) - 2)
@@ -613,10 +614,10 @@ contains
     character(len=*), intent(out) :: msg
     character(len=max_line_len + 16) :: rec(size(assign) + 2)
     logical :: enabled
-    character(len=wide) :: method, ordering, inner, particular
+    character(len=wide) :: method, ordering, inner, particular, space
     real(dp) :: rho, tol, tol_h2
     integer :: max_iter, k
-    namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering, inner, particular
+    namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering, inner, particular, space
     logical :: saved_halting(size(ieee_usual))
     rec(1) = '&dual'
     do k = 1, size(assign)
@@ -633,6 +634,7 @@ contains
     ordering = cfg%dual_ordering
     inner = cfg%dual_inner
     particular = cfg%dual_particular
+    space = cfg%dual_space
     call fp_traps_off(saved_halting)
     read (rec, nml=dual, iostat=ios, iomsg=msg)
     call ieee_set_halting_mode(ieee_usual, saved_halting)
@@ -642,7 +644,8 @@ contains
       return
     end if
     if (too_long(method, cfg%dual_method) .or. too_long(ordering, cfg%dual_ordering) .or. &
-        too_long(inner, cfg%dual_inner) .or. too_long(particular, cfg%dual_particular)) then
+        too_long(inner, cfg%dual_inner) .or. too_long(particular, cfg%dual_particular) .or. &
+        too_long(space, cfg%dual_space)) then
       call bad_value('a shorter string', ios, msg)
       return
     end if
@@ -655,6 +658,7 @@ contains
     cfg%dual_ordering = ordering(1:len(cfg%dual_ordering))
     cfg%dual_inner = inner(1:len(cfg%dual_inner))
     cfg%dual_particular = particular(1:len(cfg%dual_particular))
+    cfg%dual_space = space(1:len(cfg%dual_space))
   end subroutine read_dual_group
 
   !> Range checks of a run configuration, each naming the variable and what is expected.
@@ -730,6 +734,9 @@ contains
     else if (.not. any(cfg%dual_particular == [character(len=16) :: 'polynomial', 'stream'])) then
       call set_error(st, DS_ERR_INPUT, where // '&dual particular = "' // trim(cfg%dual_particular) // &
         '"; expected polynomial (certified for any f) or stream (the paper''s lambda_bar + curl omega)')
+    else if (.not. any(cfg%dual_space == [character(len=16) :: 'hdiv', 'paper'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual space = "' // trim(cfg%dual_space) // &
+        '"; expected hdiv (Raviart-Thomas of order 1, the default) or paper (the continuous P1 fields of Section 3)')
     end if
   end subroutine validate
 

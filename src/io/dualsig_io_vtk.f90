@@ -8,11 +8,12 @@
 !> A level file holds (arrays absent when the run did not compute them):
 !>   FieldData  level (Int32), h (longest side), est (the bound E of the level), TimeValue (= level)
 !>   PointData  u_h; u_exact and error = u_h - u (nodal values) when the scene has an exact
-!>              solution; contact_status (Int32, codes below); q_h (P1 dual field, continuous,
-!>              3 components with z = 0)
+!>              solution; contact_status (Int32, codes below); q_h (P1 dual field of the
+!>              space 'paper', continuous, 3 components with z = 0)
 !>   CellData   est_element (element contributions of est, boundary-edge terms added to the
-!>              triangle that owns the edge: their sum is est); lambda_h (P2 equilibrium field
-!>              at the centroid, 3 components with z = 0); lambda_h_vertices (6 components:
+!>              triangle that owns the edge: their sum is est); lambda_h (P2 equilibrium field,
+!>              or the P1 RT1 field of the space 'hdiv', at the centroid, 3 components with
+!>              z = 0); lambda_h_vertices (6 components:
 !>              the x and y components of lambda_h at the triangle's vertices 1, 2, 3, taken
 !>              from inside the triangle: the field is discontinuous between triangles)
 !>   Points     x, y, 0;  Cells  VTK_TRIANGLE (type 5), 0-based vertex numbers, counter-clockwise

@@ -1,0 +1,233 @@
+!> A posteriori error bounds and two-sided energy bounds for problem P1 (Section 6) with the
+!> H(div) dual field q in RT1 (dualsig_problem_dual_hdiv): for u~ in K_1h and q with
+!> q.nu >= 0 on Gamma,
+!>
+!>   (6.13)  ||u~ - u||_1^2 <= E(q, u~) = ||q - grad u~||^2 + ||f + div q - u~||^2
+!>                                        + 2 int_Gamma (q.nu) u~ ds,
+!>   (6.18)  ||q - grad u||^2 + ||f + div q - u||^2 <= E(q, u~)   (Remark 6.4),
+!>   (6.14)  2 (f, u~) - ||u~||_1^2 <= ||u||_1^2 = (f, u) <= F(q) = ||q||^2 + ||f + div q||^2.
+!>
+!> The proofs use only q in Q = H(div) with q.nu|_Gamma >= 0, which RT1 fields satisfy.
+!> E is summed from its non-negative element and edge terms (Remark 6.1).  Exactness:
+!> - ||q - grad u~||^2 and ||q||^2 are integrals of polynomials of degree 4, integrated
+!>   exactly (Radon's degree-5 rule);
+!> - in ||f + div q - u~||^2, ||f + div q||^2 and (f, u~) the factor div q - u~ (or div q, u~) is
+!>   linear, so with the caller's rule of degree >= 2 its polynomial part is exact; f is
+!>   integrated by that rule, split at the break lines of f (the existing mechanism);
+!> - the edge term: q.nu and u~ are both linear on a boundary edge, integrated exactly; q.nu
+!>   is taken >= 0 at the edge ends (it is, for a feasible q), which can only increase E.
+!> Element contributions (edge terms added to the triangle of the edge) are returned.
+module dualsig_estimate_dual_hdiv
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: field_t, vector_field_t
+  use dualsig_mesh, only: mesh_t
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_elements_p1, only: p1_gradients
+  use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_nbasis, rt1_matrix_degree
+  use dualsig_assembly_dual_hdiv, only: hdiv_local_coefficients, hdiv_bedge_dofs
+  use dualsig_estimate_dual_p1, only: dual_p1_bounds_t
+  use dualsig_load_data, only: load_data_t
+  implicit none
+  private
+
+  public :: dual_hdiv_bounds, dual_hdiv_bounds_load, dual_hdiv_errors
+
+  !> Degree of the rule for the linear-times-linear integrands of dual_hdiv_bounds_load.
+  integer, parameter :: linear_product_degree = 2
+
+contains
+
+  !> The bounds (6.13) and (6.14) for the nodal u~ (nnode) and the RT1 field x
+  !> (hdiv_nfield); f is integrated with `rule` (degree >= 2; choose a high degree).
+  subroutine dual_hdiv_bounds(mesh, u, x, f, rule, bnd, breaks)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:), x(:)
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(dual_p1_bounds_t), intent(out) :: bnd
+    real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
+    type(tri_rule_t) :: prule
+    type(tri_points_t) :: tp
+    type(rt1_geometry_t) :: g
+    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), dv(3), ue(3), gu(2), qq(2)
+    real(dp) :: e1, e2, fq, uq, dq, fu, uu, hi, grad(2, 3), area, bary(3)
+    integer :: t, k
+    allocate (bnd%est_elem(mesh%ntri))
+    prule = tri_rule(rt1_matrix_degree)
+    fu = 0.0_dp
+    uu = 0.0_dp
+    hi = 0.0_dp
+    do t = 1, mesh%ntri
+      g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
+      call p1_gradients(g%xy, grad, area)
+      c = hdiv_local_coefficients(mesh, x, t)
+      ue = u(mesh%tri(:, t))
+      gu = matmul(grad, ue)
+      ! polynomial terms of degree 4: ||q - grad u~||^2, ||q||^2, and div q at the vertices
+      e1 = 0.0_dp
+      do k = 1, prule%n
+        call rt1_values(g, prule%bary(:, k), psi, dpsi)
+        qq = matmul(psi, c)
+        e1 = e1 + area * prule%w(k) * sum((qq - gu)**2)
+        hi = hi + area * prule%w(k) * sum(qq**2)
+      end do
+      do k = 1, 3
+        bary = 0.0_dp
+        bary(k) = 1.0_dp
+        call rt1_values(g, bary, psi, dpsi)
+        dv(k) = dot_product(dpsi, c)
+      end do
+      ! terms with f: div q and u~ linear, evaluated from their vertex values
+      e2 = 0.0_dp
+      tp = points(g%xy, rule, breaks)
+      do k = 1, tp%n
+        fq = f%value(tp%p(1, k), tp%p(2, k))
+        uq = dot_product(tp%bary(:, k), ue)
+        dq = dot_product(tp%bary(:, k), dv)
+        e2 = e2 + tp%w(k) * (fq + dq - uq)**2
+        hi = hi + tp%w(k) * (fq + dq)**2
+        fu = fu + tp%w(k) * fq * uq
+      end do
+      ! ||u~||_1^2 on t, exact: grad constant, mass matrix |T|/12 (1 + delta_ij)
+      uu = uu + area * (sum(gu**2) + (sum(ue**2) + sum(ue)**2) / 12.0_dp)
+      bnd%est_elem(t) = e1 + e2
+    end do
+    call boundary_term(mesh, u, x, bnd)
+    bnd%est = sum(bnd%est_elem)
+    bnd%energy_hi = hi
+    bnd%energy_lo = 2.0_dp * fu - uu
+  end subroutine dual_hdiv_bounds
+
+  !> The bounds (6.13) and (6.14) as dual_hdiv_bounds, with f entering only through its load
+  !> data (dualsig_load_data): f - Pi_1 f is orthogonal to linear functions on each triangle
+  !> and div q, u~ are linear there, so
+  !>   ||f + div q - u~||_T^2 = osc_T^2 + ||Pi_1 f + div q - u~||_T^2,
+  !>   ||f + div q||_T^2 = osc_T^2 + ||Pi_1 f + div q||_T^2,   (f, u~)_T = f_T int u~ + grad u~ . m_T,
+  !> identities; every other integrand is a polynomial, integrated exactly.
+  subroutine dual_hdiv_bounds_load(mesh, u, x, load, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:), x(:)
+    type(load_data_t), intent(in) :: load
+    type(dual_p1_bounds_t), intent(out) :: bnd
+    type(tri_rule_t) :: prule, lrule
+    type(tri_points_t) :: tp
+    type(rt1_geometry_t) :: g
+    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), dv(3), ue(3), gu(2), qq(2)
+    real(dp) :: e1, e2, uq, dq, pf, fu, uu, hi, grad(2, 3), area, bary(3), centroid(2)
+    integer :: t, k
+    allocate (bnd%est_elem(mesh%ntri))
+    prule = tri_rule(rt1_matrix_degree)
+    lrule = tri_rule(linear_product_degree)
+    fu = 0.0_dp
+    uu = 0.0_dp
+    hi = 0.0_dp
+    do t = 1, mesh%ntri
+      g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
+      call p1_gradients(g%xy, grad, area)
+      centroid = sum(g%xy, dim=2) / 3.0_dp
+      c = hdiv_local_coefficients(mesh, x, t)
+      ue = u(mesh%tri(:, t))
+      gu = matmul(grad, ue)
+      e1 = 0.0_dp
+      do k = 1, prule%n
+        call rt1_values(g, prule%bary(:, k), psi, dpsi)
+        qq = matmul(psi, c)
+        e1 = e1 + area * prule%w(k) * sum((qq - gu)**2)
+        hi = hi + area * prule%w(k) * sum(qq**2)
+      end do
+      do k = 1, 3
+        bary = 0.0_dp
+        bary(k) = 1.0_dp
+        call rt1_values(g, bary, psi, dpsi)
+        dv(k) = dot_product(dpsi, c)
+      end do
+      ! Pi_1 f + div q - u~ and Pi_1 f + div q: linear, their squares exact with a degree-2 rule
+      e2 = load%osc(t)**2
+      hi = hi + load%osc(t)**2
+      tp = tri_points(g%xy, lrule, [real(dp) ::])
+      do k = 1, tp%n
+        pf = load%mean(t) + dot_product(load%slope(:, t), tp%p(:, k) - centroid)
+        uq = dot_product(tp%bary(:, k), ue)
+        dq = dot_product(tp%bary(:, k), dv)
+        e2 = e2 + tp%w(k) * (pf + dq - uq)**2
+        hi = hi + tp%w(k) * (pf + dq)**2
+      end do
+      fu = fu + load%mean(t) * area * sum(ue) / 3.0_dp + dot_product(gu, load%moment(:, t))
+      uu = uu + area * (sum(gu**2) + (sum(ue**2) + sum(ue)**2) / 12.0_dp)
+      bnd%est_elem(t) = e1 + e2
+    end do
+    call boundary_term(mesh, u, x, bnd)
+    bnd%est = sum(bnd%est_elem)
+    bnd%energy_hi = hi
+    bnd%energy_lo = 2.0_dp * fu - uu
+  end subroutine dual_hdiv_bounds_load
+
+  !> 2 int_Gamma (q.nu) u~ ds, exactly (both factors linear on an edge):
+  !> 2 L/6 (2 a1 b1 + a1 b2 + a2 b1 + 2 a2 b2), added to the triangles of the edges.
+  subroutine boundary_term(mesh, u, x, bnd)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:), x(:)
+    type(dual_p1_bounds_t), intent(inout) :: bnd
+    real(dp) :: qn(2), ub(2), e1
+    integer :: j, t, dofs(2)
+    bnd%boundary_term = 0.0_dp
+    do j = 1, mesh%nbedge
+      call hdiv_bedge_dofs(mesh, j, dofs)
+      qn = max(0.0_dp, x(dofs))
+      ub = u(mesh%bedge_nodes(:, j))
+      e1 = 2.0_dp * mesh%bedge_length(j) / 6.0_dp * (2.0_dp * qn(1) * ub(1) + qn(1) * ub(2) + qn(2) * ub(1) &
+                                                     + 2.0_dp * qn(2) * ub(2))
+      bnd%boundary_term = bnd%boundary_term + e1
+      t = mesh%bedge_tri(j)
+      bnd%est_elem(t) = bnd%est_elem(t) + e1
+    end do
+  end subroutine boundary_term
+
+  !> Errors of the dual field against the exact solution u of P1 (grad u = q^0,
+  !> u = f + div q^0): err_q = ||q - grad u||, err_div = ||f + div q - u||, and the
+  !> Q-norm error sqrt(err_q^2 + err_div^2).
+  subroutine dual_hdiv_errors(mesh, x, f, u, grad_u, rule, err_q, err_div, err_qnorm, breaks)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: x(:)
+    class(field_t), intent(in) :: f, u
+    class(vector_field_t), intent(in) :: grad_u
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(out) :: err_q, err_div, err_qnorm
+    real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
+    type(tri_points_t) :: tp
+    type(rt1_geometry_t) :: g
+    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), p(2), qq(2)
+    integer :: t, k
+    err_q = 0.0_dp
+    err_div = 0.0_dp
+    do t = 1, mesh%ntri
+      g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
+      c = hdiv_local_coefficients(mesh, x, t)
+      tp = points(g%xy, rule, breaks)
+      do k = 1, tp%n
+        p = tp%p(:, k)
+        call rt1_values(g, tp%bary(:, k), psi, dpsi)
+        qq = matmul(psi, c)
+        err_q = err_q + tp%w(k) * sum((qq - grad_u%value(p(1), p(2)))**2)
+        err_div = err_div + tp%w(k) * (f%value(p(1), p(2)) + dot_product(dpsi, c) - u%value(p(1), p(2)))**2
+      end do
+    end do
+    err_qnorm = sqrt(err_q + err_div)
+    err_q = sqrt(err_q)
+    err_div = sqrt(err_div)
+  end subroutine dual_hdiv_errors
+
+  !> Quadrature points of the triangle xy, split along the break lines when given.
+  pure function points(xy, rule, breaks) result(tp)
+    real(dp), intent(in) :: xy(2, 3)
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(in), optional :: breaks(:)
+    type(tri_points_t) :: tp
+    real(dp) :: none(0)
+    if (present(breaks)) then
+      tp = tri_points(xy, rule, breaks)
+    else
+      tp = tri_points(xy, rule, none)
+    end if
+  end function points
+end module dualsig_estimate_dual_hdiv

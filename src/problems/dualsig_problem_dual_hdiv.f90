@@ -1,0 +1,204 @@
+!> The dual problem of P1 (Section 3) in the H(div)-conforming space RT1: q_h minimises
+!> I(q) of (3.1') over U_0h = {q in RT1 : q.nu >= 0 on Gamma}, a subset of the paper's
+!> U_0 = {q in Q : q.nu|_Gamma >= 0} (RT1 is a subspace of Q = H(div)), so every bound of
+!> Section 6 holds with it.  lambda^h = [q_h, f + div q_h] is in U_1 (Remark 3.1).
+!>
+!> Why this space: with continuous P1 vector fields (the paper's [V_h]^2) div q is piecewise
+!> constant and ||f + div q - u~|| = O(h) with a large constant dominates E of (6.13); in RT1
+!> div q is piecewise linear, q and f + div q converge as O(h^2) (the mixed method of order
+!> 1), so E(q_h, u~_h) = ||u - u~_h||_1^2 (1 + O(h^2)) + (complementarity terms).
+!>
+!> Constraints: on a boundary edge the normal trace of RT1 is linear, so q.nu >= 0 on the
+!> edge holds exactly when it holds at both ends; the unknowns of a boundary edge are these
+!> two end values (dualsig_assembly_dual_hdiv), so U_0h is given by simple bounds
+!> x_i >= 0, one pair per boundary edge (corners need nothing special: each edge has its own
+!> pair).  With the interior unknowns condensed the problem is
+!>     minimise 1/2 x^T S x - c^T x,  x_i >= 0 on boundary edges,   S SPD,
+!> solved by
+!> - 'active_set' (default): the primal-dual active-set method, one CHOLMOD factorisation
+!>   (changes of the active set bordered on it), started from the complementarity prediction
+!>   of the primal solution: where u_h > 0 at a boundary node, q.nu = 0 there (held), where
+!>   u_h = 0, q.nu free; the other unknowns start from the normal component of grad u_h;
+!> - 'uzawa': the paper's algorithm with B = the selection of the bounded unknowns, S
+!>   factorised once; its last iterate is projected on the bounds (feasible).
+module dualsig_problem_dual_hdiv
+  use dualsig_kinds, only: dp
+  use dualsig_fields, only: field_t
+  use dualsig_mesh, only: mesh_t
+  use dualsig_sparse, only: rect_t, rect_from_triplets
+  use dualsig_quadrature, only: tri_rule_t
+  use dualsig_ordering_geometric, only: select_ordering
+  use dualsig_spd_solver, only: cholmod_spd_t
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, ROW_INEQUALITY
+  use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
+  use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
+  use dualsig_elements_p1, only: p1_gradients
+  use dualsig_assembly_dual_hdiv, only: hdiv_system_t, assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, &
+                                        hdiv_nfield, hdiv_bedge_dofs
+  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
+  implicit none
+  private
+
+  public :: dual_hdiv_solve, dual_hdiv_bound_kinds, dual_hdiv_start
+
+  !> Start value of a bounded unknown predicted free (contact: q.nu > 0 expected).
+  real(dp), parameter :: free_start = 1.0_dp
+
+contains
+
+  !> Solve the RT1 dual problem on `mesh` and return the FEASIBLE field x (hdiv_nfield:
+  !> side unknowns, then interior ones): q.nu >= 0 at both ends of every boundary edge.
+  !> f is integrated with `rule` in the load vector.  u_primal (optional, nnode): the primal
+  !> solution, for the first active set (complementarity) and the start.  st carries
+  !> DS_WARN_NOT_CONVERGED when the iteration limit was reached (x is still feasible).
+  !> sys_out (optional) returns the condensed system (for tests).
+  subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(dual_p1_settings_t), intent(in) :: settings
+    real(dp), allocatable, intent(out) :: x(:)
+    type(dual_p1_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: u_primal(:)
+    type(hdiv_system_t), intent(out), optional :: sys_out
+    type(hdiv_system_t) :: sys
+    integer, allocatable :: kind(:)
+    real(dp), allocatable :: xs(:), zero(:), pts(:,:)
+    type(active_set_settings_t) :: aset
+    type(active_set_result_t) :: ares
+    integer :: n
+
+    if (trim(settings%method) /= 'active_set' .and. trim(settings%method) /= 'uzawa') then
+      call set_error(st, DS_ERR_INPUT, 'dual P1 (hdiv): unknown method "' // trim(settings%method) // &
+        '"; expected active_set or uzawa')
+      return
+    end if
+    call assemble_dual_hdiv(mesh, f, rule, sys)
+    n = sys%a%n
+    call dual_hdiv_bound_kinds(mesh, kind)
+    res%nconstraints = count(kind == BOUND_LOWER)
+    allocate (xs(n), source=0.0_dp)
+    allocate (zero(n), source=0.0_dp)
+    allocate (pts(2, n))
+    call hdiv_dof_points(mesh, pts)
+    if (trim(settings%method) == 'uzawa') then
+      call solve_uzawa(sys, kind, pts, settings, xs, res, st)
+    else
+      if (present(u_primal)) call dual_hdiv_start(mesh, u_primal, xs)
+      aset%max_iter = settings%max_iter
+      call select_ordering(settings%ordering, pts, sys%a, aset%ordering, aset%perm, st)
+      if (.not. is_ok(st)) return
+      call active_set_solve(sys%a, sys%b, kind, zero, xs, aset, ares, st)
+      res%iterations = ares%iterations
+      res%factorisations = ares%factorisations
+      res%lowrank_solves = ares%lowrank_solves
+      res%residual = ares%kkt_residual
+      res%converged = ares%converged
+      res%nnz_factor = ares%nnz_factor
+      res%ordering = ares%ordering
+    end if
+    if (.not. is_ok(st)) return
+    ! feasible by construction (active set) or by projection (Uzawa)
+    where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
+    res%nactive = count(kind == BOUND_LOWER .and. xs <= 0.0_dp)
+    allocate (x(hdiv_nfield(mesh)))
+    call hdiv_recover(mesh, sys, xs, x)
+    if (present(sys_out)) sys_out = sys
+  end subroutine dual_hdiv_solve
+
+  !> Bound kinds of the side unknowns: BOUND_LOWER (>= 0) on boundary edges, free otherwise.
+  subroutine dual_hdiv_bound_kinds(mesh, kind)
+    type(mesh_t), intent(in) :: mesh
+    integer, allocatable, intent(out) :: kind(:)
+    integer :: j, dofs(2)
+    allocate (kind(2 * mesh%nedge), source=BOUND_FREE)
+    do j = 1, mesh%nbedge
+      call hdiv_bedge_dofs(mesh, j, dofs)
+      kind(dofs) = BOUND_LOWER
+    end do
+  end subroutine dual_hdiv_bound_kinds
+
+  !> Start of the active-set solver from the primal solution u (nnode): on interior edges
+  !> the mean normal component of grad u_h of the two triangles; on boundary edges 0 where
+  !> u > 0 at the node (complementarity: q.nu = 0 predicted, held) and free_start where
+  !> u = 0 (contact: predicted free).
+  subroutine dual_hdiv_start(mesh, u, xs)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:)
+    real(dp), intent(out) :: xs(:)
+    real(dp) :: grad(2, 3), area, gu(2), d(2), nu(2)
+    integer :: t, k, e, j, dofs(2), side
+    xs = 0.0_dp
+    do t = 1, mesh%ntri
+      call p1_gradients(mesh%xy(:, mesh%tri(:, t)), grad, area)
+      gu = matmul(grad, u(mesh%tri(:, t)))
+      do k = 1, 3
+        e = mesh%tri_edge(k, t)
+        if (mesh%edge_tri(2, e) == 0) cycle
+        ! outward normal of t on its side a_k a_{k+1} (counter-clockwise); nu_e = +-nu
+        d = mesh%xy(:, mesh%tri(mod(k, 3) + 1, t)) - mesh%xy(:, mesh%tri(k, t))
+        nu = [d(2), -d(1)] / hypot(d(1), d(2))
+        if (mesh%edge_tri(1, e) /= t) nu = -nu
+        xs(2 * e - 1:2 * e) = xs(2 * e - 1:2 * e) + 0.5_dp * dot_product(gu, nu)
+      end do
+    end do
+    do j = 1, mesh%nbedge
+      call hdiv_bedge_dofs(mesh, j, dofs)
+      do side = 1, 2
+        xs(dofs(side)) = merge(0.0_dp, free_start, u(mesh%bedge_nodes(side, j)) > 0.0_dp)
+      end do
+    end do
+  end subroutine dual_hdiv_start
+
+  !> The paper's Uzawa algorithm (Section 3) on the condensed system with B = the rows
+  !> e_i^T of the bounded unknowns: S factorised once by CHOLMOD.
+  subroutine solve_uzawa(sys, kind, pts, settings, xs, res, st)
+    type(hdiv_system_t), intent(in) :: sys
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: pts(:,:)
+    type(dual_p1_settings_t), intent(in) :: settings
+    real(dp), intent(inout) :: xs(:)
+    type(dual_p1_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st
+    type(rect_t) :: bmat
+    type(cholmod_spd_t) :: chol
+    type(uzawa_settings_t) :: uset
+    type(uzawa_result_t) :: ures
+    integer, allocatable :: rows(:), cols(:), perm(:), row_kind(:)
+    real(dp), allocatable :: vals(:), z(:), zero(:)
+    integer :: m, i, ord
+    m = count(kind == BOUND_LOWER)
+    allocate (rows(m), cols(m))
+    allocate (vals(m), source=1.0_dp)
+    allocate (z(m), zero(m), source=0.0_dp)
+    allocate (row_kind(m), source=ROW_INEQUALITY)
+    m = 0
+    do i = 1, size(kind)
+      if (kind(i) /= BOUND_LOWER) cycle
+      m = m + 1
+      rows(m) = m
+      cols(m) = i
+    end do
+    call rect_from_triplets(m, sys%a%n, rows, cols, vals, bmat)
+    call select_ordering(settings%ordering, pts, sys%a, ord, perm, st)
+    if (.not. is_ok(st)) return
+    call chol%factor(sys%a, st, ord, perm)
+    if (.not. is_ok(st)) return
+    res%factorisations = 1
+    res%nnz_factor = chol%chol%nnz_factor
+    res%ordering = chol%chol%ordering
+    uset%rho = settings%rho
+    uset%tol = settings%tol
+    uset%max_iter = settings%max_iter
+    call uzawa_solve(chol, sys%b, bmat, row_kind, zero, xs, z, uset, ures, st)
+    call chol%free()
+    res%iterations = ures%iterations
+    res%residual = ures%residual
+    res%converged = ures%converged
+    res%rho = ures%rho
+    res%lambda_max = ures%lambda_max
+    res%retries = ures%retries
+  end subroutine solve_uzawa
+end module dualsig_problem_dual_hdiv
