@@ -1,12 +1,16 @@
 !> dualsig: batch driver.  Usage: dualsig FILE.nml
 !>
 !> Runs every run of the namelist file and writes its error tables.  Exit status:
-!> 0 success, 1 usage, 2 bad input or failed run (message on standard error, no table
-!> written for the failing run), 3 finished but some solve reached its iteration limit.
+!> 0 success, 1 usage, 2 bad input or failed run (message on standard error; the failing
+!> run writes no file, unless it stopped at a later level: then its tables hold the levels
+!> before, with a STOPPED header line), 3 finished but some solve reached its iteration
+!> limit.  On SIGINT, SIGTERM or SIGHUP the temporary files are removed and the program
+!> dies of the signal (status 128 + signal number in a shell).
 program dualsig
   use, intrinsic :: iso_fortran_env, only: error_unit
   use dualsig_status, only: status_t, is_ok, DS_OK
   use dualsig_driver, only: run_namelist_file
+  use dualsig_io_files, only: cleanup_on_signals
   implicit none
   character(len=:), allocatable :: path
   type(status_t) :: st
@@ -19,6 +23,7 @@ program dualsig
   call get_command_argument(1, length=n)
   allocate (character(len=n) :: path)
   call get_command_argument(1, path)
+  call cleanup_on_signals()
   call run_namelist_file(path, st)
   exit_code = 0
   if (.not. is_ok(st)) then

@@ -9,7 +9,7 @@
 !> exact solution.  Output files are written under temporary names and renamed when the
 !> run is complete, so a failed run leaves no partial file and keeps earlier results.
 module dualsig_driver
-  use, intrinsic :: iso_fortran_env, only: output_unit
+  use, intrinsic :: iso_fortran_env, only: output_unit, int64
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
                             DS_WARN_NOT_CONVERGED, DS_WARN_NOT_CERTIFIED, DS_ERR_IO
@@ -33,10 +33,11 @@ module dualsig_driver
                               table_write_text, table_write_csv, table_format_row, &
                               table_format_header, observed_rate
   use dualsig_io_table, only: table_write_latex
-  use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_commit_run, &
+  use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_run_files, &
                             vtk_discard_run, vtk_level_path, vtk_contact_status
   use dualsig_strings, only: itoa, rtoa
-  use dualsig_io_files, only: file_commit, file_delete, temp_name, ensure_parent_dir
+  use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
+                              text_abandon, memory_available_gb
   implicit none
   private
 
@@ -47,6 +48,12 @@ module dualsig_driver
   !> ParaView output: a Signorini node is shown in contact when u_h - obstacle <= this
   !> times max|u_h| (the solvers put contact nodes on the obstacle; this absorbs rounding).
   real(dp), parameter :: contact_rel_tol = 1.0e-12_dp
+  !> Memory per triangle of a level (bytes), measured as the peak resident size of runs on
+  !> the unit square at levels 5 to 8 (doc/user-guide.md, &run max_memory_gb), rounded up.
+  real(dp), parameter :: p2_dual_bytes_per_tri = 5000.0_dp
+  real(dp), parameter :: p1_dual_bytes_per_tri = 3000.0_dp
+  real(dp), parameter :: primal_factor_bytes_per_tri = 700.0_dp
+  real(dp), parameter :: primal_bytes_per_tri = 250.0_dp
 
   !> Columns of the error table ('#' marks integer columns).
   character(len=16), parameter :: primal_columns(10) = [character(len=16) :: &
@@ -114,7 +121,12 @@ contains
 
   !> One run: the problem and settings from cfg, then one analysis level after the other,
   !> each a table row (and a .vtu file on request); finally `<output>.txt` and
-  !> `<output>.csv` (and `<output>.tex`, `<output>.pvd`).
+  !> `<output>.csv` (and `<output>.tex`, `<output>.pvd`), committed together.
+  !>
+  !> A level that fails (or whose estimated memory exceeds the limit) after at least one
+  !> level finished stops the run, but the files of the finished levels are still written,
+  !> complete, with a header line saying where and why the run stopped; st is the error of
+  !> the level.  A write error discards every file of the run and keeps earlier ones.
   subroutine run_levels(cfg, st, unit, table)
     type(run_config_t), intent(in) :: cfg
     type(status_t), intent(out) :: st
@@ -125,7 +137,8 @@ contains
     type(analysis_t) :: an
     type(level_result_t) :: res
     type(table_t) :: tab
-    integer :: level
+    type(status_t) :: st_write
+    integer :: level, done
 
     run%cfg = cfg
     run%title = trim(cfg%title)
@@ -153,7 +166,10 @@ contains
       ', ' // trim(cfg%source_file) // ' line ' // itoa(cfg%line) // ')'
     call mesh_quality_report(run%q0, unit)
     write (unit, '(a)') table_format_header(tab)
+    done = 0
     do level = 1, cfg%levels
+      call check_level_memory(run, an, level, st)
+      if (.not. is_ok(st)) exit
       call analysis_next_level(an, res, st)
       if (.not. is_ok(st)) then
         ! a mesh or assembly error names the run; a solver error the level
@@ -162,19 +178,97 @@ contains
         else
           st%msg = run%where // ': ' // st%msg
         end if
-        return
+        exit
       end if
       call report_level(run, res, unit)
       call table_new_row(tab)
       call level_row(tab, res, run%problem%kind)
       if (cfg%vtk) call vtk_level(run, an%mesh, res, st)
-      if (.not. is_ok(st)) return
+      if (.not. is_ok(st)) then
+        st%msg = run%where // ': ' // st%msg
+        return
+      end if
       write (unit, '(a)') table_format_row(tab, level)
       flush (unit)
+      done = level
     end do
-    call write_run_files(run, an%mesh, tab, st, unit)
+    if (is_ok(st)) then
+      call write_run_files(run, an%mesh, tab, done, '', st, unit)
+    else if (done > 0) then
+      ! the finished levels survive the failure of a later one
+      call write_run_files(run, an%mesh, tab, done, st%msg, st_write, unit)
+      if (is_ok(st_write)) then
+        st%msg = run%where // ': ' // st%msg // '; the run stopped there: the tables of levels 1 to ' // &
+          itoa(done) // ' were written to ' // trim(cfg%output) // '.txt and .csv'
+      else
+        st%msg = st%msg // '; writing the tables of levels 1 to ' // itoa(done) // ' failed too: ' // st_write%msg
+      end if
+    end if
     if (present(table)) table = tab
   end subroutine run_levels
+
+  !> Refuse level `level` when its estimated memory (level_memory_gb) exceeds &run
+  !> max_memory_gb, or by default the machine's available memory.
+  subroutine check_level_memory(run, an, level, st)
+    type(run_t), intent(in) :: run
+    type(analysis_t), intent(in) :: an
+    integer, intent(in) :: level
+    type(status_t), intent(out) :: st
+    real(dp) :: need, limit
+    integer(int64) :: ntri
+    character(len=:), allocatable :: what
+    if (level == 1) then
+      ntri = run%problem%mesh%ntri
+    else
+      ntri = 4_int64 * an%mesh%ntri                   ! one uniform refinement
+    end if
+    need = level_memory_gb(run%problem%kind, run%cfg%dual_enabled, run%cfg%method, ntri)
+    limit = run%cfg%max_memory_gb
+    what = '&run max_memory_gb = ' // rtoa(limit)
+    if (limit <= 0.0_dp) then
+      limit = memory_available_gb()
+      what = 'the available memory (MemAvailable of /proc/meminfo) ' // rtoa(limit) // ' GB'
+      if (limit <= 0.0_dp) return                     ! unknown: no limit
+    end if
+    if (need > limit) call set_error(st, DS_ERR_INPUT, 'level ' // itoa(level) // ': ' // int8_text(ntri) // &
+      ' triangles need an estimated ' // rtoa(need) // ' GB, more than ' // what // &
+      ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
+  end subroutine check_level_memory
+
+  !> Estimated peak memory (GB) of one level of ntri triangles: a fixed part, and per
+  !> triangle what the solvers measured on the unit square (P2 dual: the equilibrium
+  !> elements and their CHOLMOD factor; P1 dual: the vector field and its factor; the
+  !> primal alone: the matrix, and the factor for the active-set method), growing like the
+  !> fill of a nested-dissection factor, n log n, beyond 131072 triangles.
+  pure real(dp) function level_memory_gb(kind, dual, method, ntri) result(gb)
+    integer, intent(in) :: kind
+    logical, intent(in) :: dual
+    character(len=*), intent(in) :: method
+    integer(int64), intent(in) :: ntri
+    real(dp), parameter :: base_bytes = 16.0e6_dp            !! program, libraries, coarse data
+    real(dp), parameter :: calibration_ntri = 131072.0_dp    !! 2x2 square, level 8
+    real(dp) :: per_tri
+    if (dual .and. kind == PROBLEM_P1) then
+      per_tri = p1_dual_bytes_per_tri
+    else if (dual) then
+      per_tri = p2_dual_bytes_per_tri
+    else if (method == 'active_set') then
+      per_tri = primal_factor_bytes_per_tri
+    else
+      per_tri = primal_bytes_per_tri
+    end if
+    gb = (base_bytes + per_tri * real(ntri, dp) * &
+          max(1.0_dp, log(real(ntri, dp)) / log(calibration_ntri))) / 1.0e9_dp
+  end function level_memory_gb
+
+  !> An integer(int64) as text.
+  pure function int8_text(i) result(text)
+    integer(int64), intent(in) :: i
+    character(len=:), allocatable :: text
+    character(len=24) :: buf
+    write (buf, '(i0)') i
+    text = trim(buf)
+  end function int8_text
 
   !> The analysis problem of a run: the scene (load, exact solution, default boundary
   !> parts), the coarse mesh (generator or file) and the boundary markers; the quality of
@@ -601,37 +695,55 @@ contains
     end associate
   end function parts_run
 
-  !> Write the tables (and the LaTeX table and the ParaView collection on request) under
-  !> temporary names, then commit them all; on any failure none of them is left.
-  subroutine write_run_files(run, mesh, tab, st, unit)
+  !> Write the tables of the first `nlevel` levels (and the LaTeX table and the ParaView
+  !> collection on request) under temporary names, every write checked, then commit them
+  !> together with the level files (file_commit_all): on any failure none of them is left
+  !> and earlier files of the same names are kept.  A non-empty `stopped` (why the run
+  !> stopped after level nlevel) becomes a header line of the text table.
+  subroutine write_run_files(run, mesh, tab, nlevel, stopped, st, unit)
     type(run_t), intent(in) :: run
     type(mesh_t), intent(in) :: mesh
     type(table_t), intent(in) :: tab
+    integer, intent(in) :: nlevel
+    character(len=*), intent(in) :: stopped
     type(status_t), intent(out) :: st
     integer, intent(in) :: unit
     character(len=:), allocatable :: txt_path, csv_path, tex_path
+    character(len=len_trim(run%cfg%output) + 16), allocatable :: paths(:)
+    character(len=300), allocatable :: header(:)
+    character(len=300) :: line
     associate (cfg => run%cfg)
       txt_path = trim(cfg%output) // '.txt'
       csv_path = trim(cfg%output) // '.csv'
       tex_path = trim(cfg%output) // '.tex'
-      call table_write_text(tab, txt_path, table_header(run, mesh), st)
+      header = table_header(run, mesh)
+      if (len(stopped) > 0) then
+        line = 'STOPPED after level ' // itoa(nlevel) // ' of ' // itoa(cfg%levels) // ': ' // stopped
+        header = [header(1:1), line, header(2:)]
+      end if
+      ! (element by element: gfortran 12 corrupts the heap on some constructors of strings)
+      allocate (paths(2 + merge(1, 0, cfg%latex) + merge(nlevel + 1, 0, cfg%vtk)))
+      paths(1) = txt_path
+      paths(2) = csv_path
+      if (cfg%latex) paths(3) = tex_path
+      if (cfg%vtk) paths(size(paths) - nlevel:) = vtk_run_files(cfg%output, nlevel)
+      call table_write_text(tab, txt_path, header, st)
       if (st%code == 0) call table_write_csv(tab, csv_path, st)
       if (st%code == 0 .and. cfg%latex) call table_write_latex(tab, tex_path, run%title, st)
-      if (st%code == 0 .and. cfg%vtk) call vtk_write_collection(cfg%output, cfg%levels, st)
-      if (st%code == 0) call file_commit(txt_path, st)
-      if (st%code == 0) call file_commit(csv_path, st)
-      if (st%code == 0 .and. cfg%latex) call file_commit(tex_path, st)
-      if (st%code == 0 .and. cfg%vtk) call vtk_commit_run(cfg%output, cfg%levels, st)
+      if (st%code == 0 .and. cfg%vtk) call vtk_write_collection(cfg%output, nlevel, st)
+      if (st%code == 0) call file_commit_all(paths, st)
       if (st%code /= 0) then
+        st%msg = run%where // ': ' // st%msg
         call file_delete(temp_name(txt_path))
         call file_delete(temp_name(csv_path))
         call file_delete(temp_name(tex_path))
+        if (cfg%vtk) call vtk_discard_run(cfg%output, cfg%levels)
         return
       end if
       write (unit, '(a)') 'dualsig: table written to ' // txt_path // ' and ' // csv_path
       if (cfg%latex) write (unit, '(a)') 'dualsig: LaTeX table written to ' // tex_path
       if (cfg%vtk) write (unit, '(a)') 'dualsig: ParaView files written: ' // trim(cfg%output) // &
-        '.pvd and ' // itoa(cfg%levels) // ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu'
+        '.pvd and ' // itoa(nlevel) // ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu'
       if (run%nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &
         itoa(run%nonconverged) // ' solve(s) of run "' // trim(cfg%title) // '" did not converge')
       if (run%uncertified > 0) call set_warning(st, DS_WARN_NOT_CERTIFIED, &
@@ -647,8 +759,8 @@ contains
     type(run_config_t), intent(in) :: cfg
     type(status_t), intent(out) :: st
     character(len=:), allocatable :: txt_path, dir, where
-    character(len=256) :: iom
-    integer :: u, ios, k
+    type(text_file_t) :: probe
+    integer :: k
     logical :: is_dir
     txt_path = trim(cfg%output) // '.txt'
     k = index(txt_path, '/', back=.true.)
@@ -674,14 +786,13 @@ contains
         return
       end if
     end do
-    iom = ''
-    open (newunit=u, file=temp_name(txt_path), status='replace', action='write', iostat=ios, iomsg=iom)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, where // "cannot create files in the directory '" // dir // "' (" // &
-        trim(iom) // '; expected a writable directory)')
+    call text_open(probe, txt_path, st)
+    if (st%code /= 0) then
+      st%msg = where // "cannot create files in the directory '" // dir // "' (" // st%msg // &
+        '; expected a writable directory)'
       return
     end if
-    close (u, status='delete', iostat=ios)
+    call text_abandon(probe)
   end subroutine check_output_writable
 
 end module dualsig_driver

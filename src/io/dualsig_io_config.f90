@@ -28,7 +28,7 @@ module dualsig_io_config
   integer, parameter :: marker_name_len = 64    !! longest physical-group name in gamma_u/a_names
 
   character(len=*), parameter :: run_items = &
-    'title scene output gamma_u_markers gamma_a_markers vtk latex gamma_u_names gamma_a_names'
+    'title scene output gamma_u_markers gamma_a_markers vtk latex gamma_u_names gamma_a_names max_memory_gb'
   character(len=*), parameter :: mesh_items = &
     'source file x0 x1 y0 y1 nx ny n pattern levels format'
   character(len=*), parameter :: solver_items = &
@@ -50,6 +50,9 @@ module dualsig_io_config
     character(len=marker_name_len) :: gamma_a_names(max_markers) = ''
     logical :: vtk = .false.                       !! write <output>_levelLL.vtu and <output>.pvd
     logical :: latex = .false.                     !! write the error table also as <output>.tex
+    !> memory a level may need (GB, estimated from its mesh before it starts); 0 = the
+    !> machine's available memory (MemAvailable of /proc/meminfo)
+    real(dp) :: max_memory_gb = 0.0_dp
     ! &mesh
     character(len=16) :: mesh_source = 'rectangle'
     character(len=256) :: mesh_file = ''
@@ -168,7 +171,10 @@ contains
     lines(1) = '&run title = ''' // trim(cfg%title) // ''', scene = ''' // trim(cfg%scene) // &
       ''', output = ''' // trim(cfg%output) // ''', gamma_u_markers = ' // ilist(cfg%gamma_u_markers) // &
       ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ', vtk = ' // ltoa(cfg%vtk) // &
-      ', latex = ' // ltoa(cfg%latex) // ' /'
+      ', latex = ' // ltoa(cfg%latex)
+    ! (given only: the default, the available memory, depends on the machine)
+    if (cfg%max_memory_gb > 0.0_dp) lines(1) = trim(lines(1)) // ', max_memory_gb = ' // rtoa(cfg%max_memory_gb)
+    lines(1) = trim(lines(1)) // ' /'
     lines(2) = '&mesh source = ''' // trim(cfg%mesh_source) // ''', file = ''' // trim(cfg%mesh_file) // &
       ''', format = ''' // trim(cfg%mesh_format) // ''', x0 = ' // rtoa(cfg%x0) // ', x1 = ' // rtoa(cfg%x1) // &
       ', y0 = ' // rtoa(cfg%y0) // &
@@ -474,6 +480,7 @@ contains
     integer :: gamma_u_markers(max_markers), gamma_a_markers(max_markers)
     logical :: vtk, latex
     character(len=wide) :: gamma_u_names(max_markers), gamma_a_names(max_markers)
+    real(dp) :: max_memory_gb
     ! &mesh
     character(len=wide) :: source, pattern
     character(len=wide) :: file, format
@@ -484,7 +491,8 @@ contains
     real(dp) :: omega, tol
     logical :: omega_auto, nested
     integer :: max_iter, check_every
-    namelist /run/ title, scene, output, gamma_u_markers, gamma_a_markers, vtk, latex, gamma_u_names, gamma_a_names
+    namelist /run/ title, scene, output, gamma_u_markers, gamma_a_markers, vtk, latex, gamma_u_names, gamma_a_names, &
+                   max_memory_gb
     namelist /mesh/ source, file, format, x0, x1, y0, y1, nx, ny, n, pattern, levels
     namelist /solver/ method, omega, omega_auto, tol, max_iter, check_every, nested
     integer :: k
@@ -513,10 +521,15 @@ contains
       latex = cfg%latex
       gamma_u_names = cfg%gamma_u_names
       gamma_a_names = cfg%gamma_a_names
+      max_memory_gb = cfg%max_memory_gb
       call fp_traps_off(saved_halting)
       read (rec, nml=run, iostat=ios, iomsg=msg)
       call ieee_set_halting_mode(ieee_usual, saved_halting)
       if (ios /= 0) return
+      if (.not. ieee_is_finite(max_memory_gb)) then
+        call bad_value('a finite real number', ios, msg)
+        return
+      end if
       if (too_long(title, cfg%title) .or. too_long(scene, cfg%scene) .or. too_long(output, cfg%output)) then
         call bad_value('a shorter string', ios, msg)
         return
@@ -538,6 +551,7 @@ contains
       cfg%gamma_a_markers = gamma_a_markers
       cfg%vtk = vtk
       cfg%latex = latex
+      cfg%max_memory_gb = max_memory_gb
     case ('mesh')
       source = cfg%mesh_source
       file = cfg%mesh_file
@@ -672,6 +686,9 @@ contains
     else if (cfg%output(len_trim(cfg%output):len_trim(cfg%output)) == '/') then
       call set_error(st, DS_ERR_INPUT, where // '&run output = ''' // trim(cfg%output) // &
         ''' names a directory; expected a path of the table files without extension, e.g. ''out/run1''')
+    else if (cfg%max_memory_gb < 0.0_dp) then
+      call set_error(st, DS_ERR_INPUT, where // '&run max_memory_gb = ' // rtoa(cfg%max_memory_gb) // &
+        '; expected >= 0 (0: the available memory of the machine)')
     else if (any(cfg%gamma_u_markers < 0) .or. any(cfg%gamma_a_markers < 0)) then
       call set_error(st, DS_ERR_INPUT, where // '&run gamma_u_markers / gamma_a_markers must be > 0')
     else if (.not. any(cfg%mesh_source == [character(len=16) :: 'rectangle', 'lshape', 'holed_square', 'file'])) then
@@ -770,7 +787,7 @@ contains
     select case (trim(name))
     case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering', 'inner', 'particular')
       s = 'a quoted string'
-    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2')
+    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb')
       s = 'a real number'
     case ('omega_auto', 'nested', 'enabled', 'vtk', 'latex')
       s = 'a logical, .true. or .false.'

@@ -11,7 +11,8 @@
 module dualsig_io_matrix_market
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: csr_t
-  use dualsig_status, only: status_t, set_error, DS_ERR_IO
+  use dualsig_status, only: status_t
+  use dualsig_io_files, only: text_file_t, text_open, text_put, text_close, file_commit_all, file_delete, temp_name
   implicit none
   private
 
@@ -19,66 +20,78 @@ module dualsig_io_matrix_market
 
 contains
 
-  !> Write the five files of the QP (A, F, kind, bnd) and the solution x under `base`.
+  !> Write the five files of the QP (A, F, kind, bnd) and the solution x under `base`:
+  !> each under its temporary name with every write checked, then committed as a set
+  !> (file_commit_all); on a failure none of them is replaced and no temporary file is left.
   subroutine write_qp_matrix_market(base, a, f, kind, bnd, x, st)
     character(len=*), intent(in) :: base
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: f(:), bnd(:), x(:)
     integer, intent(in) :: kind(:)
     type(status_t), intent(out) :: st
-    integer :: u, ios, i, p
-    character(len=256) :: msg
-    open (newunit=u, file=base // '_A.mtx', status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // base // '_A.mtx: ' // trim(msg))
-      return
-    end if
-    write (u, '(a)') '%%MatrixMarket matrix coordinate real general'
-    write (u, '(a)') '% dualsig QP matrix A (symmetric, both triangles stored)'
-    write (u, '(i0,1x,i0,1x,i0)') a%n, a%n, a%rowptr(a%n + 1) - 1
+    character(len=len(base) + len('_kind.mtx')) :: paths(5)
+    type(text_file_t) :: tf
+    character(len=80) :: buf
+    integer :: i, p, k
+    paths(1) = base // '_A.mtx'
+    paths(2) = base // '_F.mtx'
+    paths(3) = base // '_bnd.mtx'
+    paths(4) = base // '_x.mtx'
+    paths(5) = base // '_kind.mtx'
+    call text_open(tf, paths(1), st)
+    if (st%code /= 0) return
+    call text_put(tf, '%%MatrixMarket matrix coordinate real general')
+    call text_put(tf, '% dualsig QP matrix A (symmetric, both triangles stored)')
+    write (buf, '(i0,1x,i0,1x,i0)') a%n, a%n, a%rowptr(a%n + 1) - 1
+    call text_put(tf, trim(buf))
     do i = 1, a%n
       do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        write (u, '(i0,1x,i0,1x,es24.16e3)') i, a%col(p), a%val(p)
+        write (buf, '(i0,1x,i0,1x,es24.16e3)') i, a%col(p), a%val(p)
+        call text_put(tf, trim(buf))
       end do
     end do
-    close (u)
-    call write_real_array(base // '_F.mtx', f, st)
-    if (st%code /= 0) return
-    call write_real_array(base // '_bnd.mtx', bnd, st)
-    if (st%code /= 0) return
-    call write_real_array(base // '_x.mtx', x, st)
-    if (st%code /= 0) return
-    open (newunit=u, file=base // '_kind.mtx', status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // base // '_kind.mtx: ' // trim(msg))
-      return
+    call text_close(tf, st)
+    if (st%code == 0) call write_real_array(paths(2), f, st)
+    if (st%code == 0) call write_real_array(paths(3), bnd, st)
+    if (st%code == 0) call write_real_array(paths(4), x, st)
+    if (st%code == 0) call text_open(tf, paths(5), st)
+    if (st%code == 0) then
+      call text_put(tf, '%%MatrixMarket matrix array integer general')
+      call text_put(tf, '% 0 free, 1 x >= bnd, 2 x = bnd')
+      write (buf, '(i0,1x,i0)') size(kind), 1
+      call text_put(tf, trim(buf))
+      do i = 1, size(kind)
+        write (buf, '(i0)') kind(i)
+        call text_put(tf, trim(buf))
+      end do
+      call text_close(tf, st)
     end if
-    write (u, '(a)') '%%MatrixMarket matrix array integer general'
-    write (u, '(a)') '% 0 free, 1 x >= bnd, 2 x = bnd'
-    write (u, '(i0,1x,i0)') size(kind), 1
-    do i = 1, size(kind)
-      write (u, '(i0)') kind(i)
-    end do
-    close (u)
+    if (st%code == 0) then
+      call file_commit_all(paths, st)
+    else
+      do k = 1, size(paths)
+        call file_delete(temp_name(paths(k)))
+      end do
+    end if
   end subroutine write_qp_matrix_market
 
-  !> A dense column vector in Matrix Market array format.
+  !> A dense column vector in Matrix Market array format, to temp_name(path).
   subroutine write_real_array(path, v, st)
     character(len=*), intent(in) :: path
     real(dp), intent(in) :: v(:)
     type(status_t), intent(out) :: st
-    integer :: u, ios, i
-    character(len=256) :: msg
-    open (newunit=u, file=path, status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // path // ': ' // trim(msg))
-      return
-    end if
-    write (u, '(a)') '%%MatrixMarket matrix array real general'
-    write (u, '(i0,1x,i0)') size(v), 1
+    type(text_file_t) :: tf
+    character(len=40) :: buf
+    integer :: i
+    call text_open(tf, path, st)
+    if (st%code /= 0) return
+    call text_put(tf, '%%MatrixMarket matrix array real general')
+    write (buf, '(i0,1x,i0)') size(v), 1
+    call text_put(tf, trim(buf))
     do i = 1, size(v)
-      write (u, '(es24.16e3)') v(i)
+      write (buf, '(es24.16e3)') v(i)
+      call text_put(tf, trim(buf))
     end do
-    close (u)
+    call text_close(tf, st)
   end subroutine write_real_array
 end module dualsig_io_matrix_market

@@ -5,8 +5,8 @@
 !> floating-point traps of the checked build stay armed.  Columns are integers or reals.
 module dualsig_io_table
   use dualsig_kinds, only: dp
-  use dualsig_status, only: status_t, set_error, DS_ERR_IO, DS_ERR_INPUT
-  use dualsig_io_files, only: temp_name, file_delete
+  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
+  use dualsig_io_files, only: text_file_t, text_open, text_put, text_close
   implicit none
   private
 
@@ -144,27 +144,20 @@ contains
     character(len=*), intent(in) :: path
     character(len=*), intent(in) :: header(:)
     type(status_t), intent(out) :: st
-    integer :: u, ios, k, r
-    character(len=256) :: msg
+    type(text_file_t) :: tf
+    integer :: k, r
     character(len=:), allocatable :: heading
-    open (newunit=u, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // trim(path) // ': ' // trim(msg))
-      return
-    end if
+    call text_open(tf, path, st)
+    if (st%code /= 0) return
     heading = table_format_header(tab)
     do k = 1, size(header)
-      write (u, '(a)', iostat=ios) '# ' // trim(header(k))
+      call text_put(tf, '# ' // trim(header(k)))
     end do
-    write (u, '(a)', iostat=ios) '#' // heading(2:)
+    call text_put(tf, '#' // heading(2:))
     do r = 1, tab%nrow
-      write (u, '(a)', iostat=ios) table_format_row(tab, r)
+      call text_put(tf, table_format_row(tab, r))
     end do
-    close (u, iostat=ios)
-    if (ios /= 0) then
-      call file_delete(temp_name(path))
-      call set_error(st, DS_ERR_IO, 'error while writing ' // trim(path))
-    end if
+    call text_close(tf, st)
   end subroutine table_write_text
 
   !> Write the CSV table (header row, then one row per level, full precision) to
@@ -173,31 +166,24 @@ contains
     type(table_t), intent(in) :: tab
     character(len=*), intent(in) :: path
     type(status_t), intent(out) :: st
-    integer :: u, ios, k, r
+    type(text_file_t) :: tf
+    integer :: k, r
     character(len=:), allocatable :: line
-    character(len=256) :: msg
-    open (newunit=u, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // trim(path) // ': ' // trim(msg))
-      return
-    end if
+    call text_open(tf, path, st)
+    if (st%code /= 0) return
     line = trim(tab%name(1))
     do k = 2, tab%ncol
       line = line // ',' // trim(tab%name(k))
     end do
-    write (u, '(a)', iostat=ios) line
+    call text_put(tf, line)
     do r = 1, tab%nrow
       line = cell(tab, 1, r, .false.)
       do k = 2, tab%ncol
         line = line // ',' // cell(tab, k, r, .false.)
       end do
-      write (u, '(a)', iostat=ios) line
+      call text_put(tf, line)
     end do
-    close (u, iostat=ios)
-    if (ios /= 0) then
-      call file_delete(temp_name(path))
-      call set_error(st, DS_ERR_IO, 'error while writing ' // trim(path))
-    end if
+    call text_close(tf, st)
   end subroutine table_write_csv
 
   !> Write the table as a LaTeX `booktabs` table (\toprule, \midrule, \bottomrule; the
@@ -214,9 +200,9 @@ contains
     type(status_t), intent(out) :: st
     character(len=*), intent(in), optional :: columns(:)
     integer, allocatable :: cols(:)
-    integer :: u, ios, io, k, r
+    type(text_file_t) :: tf
+    integer :: k, r
     character(len=:), allocatable :: line
-    character(len=256) :: msg
     if (present(columns)) then
       allocate (cols(size(columns)))
       do k = 1, size(columns)
@@ -230,51 +216,33 @@ contains
     else
       cols = [(k, k=1, tab%ncol)]
     end if
-    open (newunit=u, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // trim(path) // ': ' // trim(msg))
-      return
-    end if
-    write (u, '(a)', iostat=ios) '% dualsig error table; needs \usepackage{booktabs}'
-    write (u, '(a)', iostat=io) '\begin{table}[htbp]'
-    ios = max(ios, abs(io))
-    write (u, '(a)', iostat=io) '\centering'
-    ios = max(ios, abs(io))
-    write (u, '(a)', iostat=io) '\caption{' // latex_escape(trim(caption)) // '}'
-    ios = max(ios, abs(io))
-    write (u, '(a)', iostat=io) '\begin{tabular}{' // repeat('r', size(cols)) // '}'
-    ios = max(ios, abs(io))
-    write (u, '(a)', iostat=io) '\toprule'
-    ios = max(ios, abs(io))
+    call text_open(tf, path, st)
+    if (st%code /= 0) return
+    call text_put(tf, '% dualsig error table; needs \usepackage{booktabs}')
+    call text_put(tf, '\begin{table}[htbp]')
+    call text_put(tf, '\centering')
+    call text_put(tf, '\caption{' // latex_escape(trim(caption)) // '}')
+    call text_put(tf, '\begin{tabular}{' // repeat('r', size(cols)) // '}')
+    call text_put(tf, '\toprule')
     line = ''
     do k = 1, size(cols)
       if (k > 1) line = line // ' & '
       line = line // latex_escape(trim(tab%name(cols(k))))
     end do
-    write (u, '(a)', iostat=io) line // ' \\'
-    ios = max(ios, abs(io))
-    write (u, '(a)', iostat=io) '\midrule'
-    ios = max(ios, abs(io))
+    call text_put(tf, line // ' \\')
+    call text_put(tf, '\midrule')
     do r = 1, tab%nrow
       line = ''
       do k = 1, size(cols)
         if (k > 1) line = line // ' & '
         line = line // latex_cell(tab, cols(k), r)
       end do
-      write (u, '(a)', iostat=io) line // ' \\'
-      ios = max(ios, abs(io))
+      call text_put(tf, line // ' \\')
     end do
-    write (u, '(a)', iostat=io) '\bottomrule'
-    ios = max(ios, abs(io))
-    write (u, '(a)', iostat=io) '\end{tabular}'
-    ios = max(ios, abs(io))
-    write (u, '(a)', iostat=io) '\end{table}'
-    ios = max(ios, abs(io))
-    close (u, iostat=io)
-    if (ios /= 0 .or. io /= 0) then
-      call file_delete(temp_name(path))
-      call set_error(st, DS_ERR_IO, 'error while writing ' // trim(path))
-    end if
+    call text_put(tf, '\bottomrule')
+    call text_put(tf, '\end{tabular}')
+    call text_put(tf, '\end{table}')
+    call text_close(tf, st)
   end subroutine table_write_latex
 
   ! ------------------------------------------------------------------ private

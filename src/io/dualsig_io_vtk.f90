@@ -29,12 +29,12 @@ module dualsig_io_vtk
   use dualsig_status, only: status_t, set_error, DS_ERR_IO, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
-  use dualsig_io_files, only: temp_name, file_delete, file_commit
+  use dualsig_io_files, only: temp_name, file_delete, file_commit_all, text_file_t, text_open, text_put, text_close
   use dualsig_strings, only: itoa
   implicit none
   private
 
-  public :: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_commit_run, vtk_discard_run
+  public :: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_commit_run, vtk_discard_run, vtk_run_files
   public :: vtk_level_path, vtk_collection_path, vtk_contact_status
   public :: CONTACT_INTERIOR, CONTACT_SEPARATED, CONTACT_ACTIVE, CONTACT_DIRICHLET
 
@@ -110,8 +110,8 @@ contains
     real(dp), intent(in) :: u(:)
     type(vtk_fields_t), intent(in) :: fld
     type(status_t), intent(out) :: st
-    integer :: un, ios, i, t
-    character(len=256) :: msg
+    type(text_file_t) :: tf
+    integer :: i, t
     logical :: bad
     bad = size(u) /= mesh%nnode
     if (allocated(fld%u_exact)) bad = bad .or. size(fld%u_exact) /= mesh%nnode
@@ -127,64 +127,61 @@ contains
         itoa(mesh%nnode) // ' nodes, ' // itoa(mesh%ntri) // ' triangles)')
       return
     end if
-    open (newunit=un, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // trim(path) // ': ' // trim(msg))
-      return
-    end if
-    write (un, '(a)', iostat=ios) '<?xml version="1.0"?>'
-    write (un, '(a)', iostat=ios) '<!-- dualsig level ' // itoa(level) // '. contact_status: -1 interior node, ' // &
+    call text_open(tf, path, st)
+    if (st%code /= 0) return
+    call text_put(tf, '<?xml version="1.0"?>')
+    call text_put(tf, '<!-- dualsig level ' // itoa(level) // '. contact_status: -1 interior node, ' // &
       '0 separated (Signorini node, u_h > obstacle), 1 contact (Signorini node, u_h = obstacle), ' // &
-      '2 Dirichlet (Gamma_u). error = u_h - u_exact at the nodes. est_element sums to est. -->'
-    write (un, '(a)', iostat=ios) '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian">'
-    write (un, '(a)', iostat=ios) '  <UnstructuredGrid>'
-    write (un, '(a)', iostat=ios) '    <FieldData>'
-    call int_array(un, 'level', 1, [level], ios, 'NumberOfTuples="1" ')
-    call real_array(un, 'TimeValue', 1, [real(level, dp)], ios, 'NumberOfTuples="1" ')
-    call real_array(un, 'h', 1, [h], ios, 'NumberOfTuples="1" ')
-    if (fld%has_est) call real_array(un, 'est', 1, [fld%est], ios, 'NumberOfTuples="1" ')
-    write (un, '(a)', iostat=ios) '    </FieldData>'
-    write (un, '(a)', iostat=ios) '    <Piece NumberOfPoints="' // itoa(mesh%nnode) // '" NumberOfCells="' // &
-      itoa(mesh%ntri) // '">'
-    write (un, '(a)', iostat=ios) '      <PointData Scalars="u_h">'
-    call real_array(un, 'u_h', 1, u, ios)
+      '2 Dirichlet (Gamma_u). error = u_h - u_exact at the nodes. est_element sums to est. -->')
+    call text_put(tf, '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian">')
+    call text_put(tf, '  <UnstructuredGrid>')
+    call text_put(tf, '    <FieldData>')
+    call int_array(tf, 'level', 1, [level], 'NumberOfTuples="1" ')
+    call real_array(tf, 'TimeValue', 1, [real(level, dp)], 'NumberOfTuples="1" ')
+    call real_array(tf, 'h', 1, [h], 'NumberOfTuples="1" ')
+    if (fld%has_est) call real_array(tf, 'est', 1, [fld%est], 'NumberOfTuples="1" ')
+    call text_put(tf, '    </FieldData>')
+    call text_put(tf, '    <Piece NumberOfPoints="' // itoa(mesh%nnode) // '" NumberOfCells="' // &
+      itoa(mesh%ntri) // '">')
+    call text_put(tf, '      <PointData Scalars="u_h">')
+    call real_array(tf, 'u_h', 1, u)
     if (allocated(fld%u_exact)) then
-      call real_array(un, 'u_exact', 1, fld%u_exact, ios)
-      call real_array(un, 'error', 1, u - fld%u_exact, ios)
+      call real_array(tf, 'u_exact', 1, fld%u_exact)
+      call real_array(tf, 'error', 1, u - fld%u_exact)
     end if
-    if (allocated(fld%contact)) call int_array(un, 'contact_status', 1, fld%contact, ios)
-    if (allocated(fld%q_h)) call real_array(un, 'q_h', 3, pad_z(fld%q_h), ios)
-    write (un, '(a)', iostat=ios) '      </PointData>'
+    if (allocated(fld%contact)) call int_array(tf, 'contact_status', 1, fld%contact)
+    if (allocated(fld%q_h)) call real_array(tf, 'q_h', 3, pad_z(fld%q_h))
+    call text_put(tf, '      </PointData>')
     if (allocated(fld%est_element)) then
-      write (un, '(a)', iostat=ios) '      <CellData Scalars="est_element">'
+      call text_put(tf, '      <CellData Scalars="est_element">')
     else
-      write (un, '(a)', iostat=ios) '      <CellData>'
+      call text_put(tf, '      <CellData>')
     end if
-    if (allocated(fld%est_element)) call real_array(un, 'est_element', 1, fld%est_element, ios)
-    if (allocated(fld%lambda_centroid)) call real_array(un, 'lambda_h', 3, pad_z(fld%lambda_centroid), ios)
-    if (allocated(fld%lambda_vertices)) call real_array(un, 'lambda_h_vertices', 6, &
-                                                        reshape(fld%lambda_vertices, [6 * mesh%ntri]), ios)
-    write (un, '(a)', iostat=ios) '      </CellData>'
-    write (un, '(a)', iostat=ios) '      <Points>'
-    call real_array(un, 'Points', 3, pad_z(mesh%xy), ios)
-    write (un, '(a)', iostat=ios) '      </Points>'
-    write (un, '(a)', iostat=ios) '      <Cells>'
-    write (un, '(a)', iostat=ios) '        <DataArray type="Int64" Name="connectivity" format="ascii">'
+    if (allocated(fld%est_element)) call real_array(tf, 'est_element', 1, fld%est_element)
+    if (allocated(fld%lambda_centroid)) call real_array(tf, 'lambda_h', 3, pad_z(fld%lambda_centroid))
+    if (allocated(fld%lambda_vertices)) call real_array(tf, 'lambda_h_vertices', 6, &
+                                                        reshape(fld%lambda_vertices, [6 * mesh%ntri]))
+    call text_put(tf, '      </CellData>')
+    call text_put(tf, '      <Points>')
+    call real_array(tf, 'Points', 3, pad_z(mesh%xy))
+    call text_put(tf, '      </Points>')
+    call text_put(tf, '      <Cells>')
+    call text_put(tf, '        <DataArray type="Int64" Name="connectivity" format="ascii">')
     do t = 1, mesh%ntri
-      write (un, '(3(1x,i0))', iostat=ios) mesh%tri(:, t) - 1
+      call put_ints(tf, mesh%tri(:, t) - 1, 3)
     end do
-    write (un, '(a)', iostat=ios) '        </DataArray>'
-    write (un, '(a)', iostat=ios) '        <DataArray type="Int64" Name="offsets" format="ascii">'
-    write (un, '(8(1x,i0))', iostat=ios) (3 * t, t=1, mesh%ntri)
-    write (un, '(a)', iostat=ios) '        </DataArray>'
-    write (un, '(a)', iostat=ios) '        <DataArray type="UInt8" Name="types" format="ascii">'
-    write (un, '(20(1x,i0))', iostat=ios) (vtk_triangle, i=1, mesh%ntri)
-    write (un, '(a)', iostat=ios) '        </DataArray>'
-    write (un, '(a)', iostat=ios) '      </Cells>'
-    write (un, '(a)', iostat=ios) '    </Piece>'
-    write (un, '(a)', iostat=ios) '  </UnstructuredGrid>'
-    write (un, '(a)', iostat=ios) '</VTKFile>'
-    call finish(un, path, ios, st)
+    call text_put(tf, '        </DataArray>')
+    call text_put(tf, '        <DataArray type="Int64" Name="offsets" format="ascii">')
+    call put_ints(tf, [(3 * t, t=1, mesh%ntri)], 8)
+    call text_put(tf, '        </DataArray>')
+    call text_put(tf, '        <DataArray type="UInt8" Name="types" format="ascii">')
+    call put_ints(tf, [(vtk_triangle, i=1, mesh%ntri)], 20)
+    call text_put(tf, '        </DataArray>')
+    call text_put(tf, '      </Cells>')
+    call text_put(tf, '    </Piece>')
+    call text_put(tf, '  </UnstructuredGrid>')
+    call text_put(tf, '</VTKFile>')
+    call text_close(tf, st)
   end subroutine vtk_write_level
 
   !> Write the collection of levels 1..nlevel of the run `output` to
@@ -193,40 +190,43 @@ contains
     character(len=*), intent(in) :: output
     integer, intent(in) :: nlevel
     type(status_t), intent(out) :: st
-    character(len=:), allocatable :: path
-    character(len=256) :: msg
-    integer :: un, ios, level
-    path = vtk_collection_path(output)
-    open (newunit=un, file=temp_name(path), status='replace', action='write', iostat=ios, iomsg=msg)
-    if (ios /= 0) then
-      call set_error(st, DS_ERR_IO, 'cannot write ' // path // ': ' // trim(msg))
-      return
-    end if
-    write (un, '(a)', iostat=ios) '<?xml version="1.0"?>'
-    write (un, '(a)', iostat=ios) '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">'
-    write (un, '(a)', iostat=ios) '  <Collection>'
+    type(text_file_t) :: tf
+    integer :: level
+    call text_open(tf, vtk_collection_path(output), st)
+    if (st%code /= 0) return
+    call text_put(tf, '<?xml version="1.0"?>')
+    call text_put(tf, '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">')
+    call text_put(tf, '  <Collection>')
     do level = 1, nlevel
-      write (un, '(a)', iostat=ios) '    <DataSet timestep="' // itoa(level) // '" group="" part="0" file="' // &
-        base_name(vtk_level_path(output, level)) // '"/>'
+      call text_put(tf, '    <DataSet timestep="' // itoa(level) // '" group="" part="0" file="' // &
+        base_name(vtk_level_path(output, level)) // '"/>')
     end do
-    write (un, '(a)', iostat=ios) '  </Collection>'
-    write (un, '(a)', iostat=ios) '</VTKFile>'
-    call finish(un, path, ios, st)
+    call text_put(tf, '  </Collection>')
+    call text_put(tf, '</VTKFile>')
+    call text_close(tf, st)
   end subroutine vtk_write_collection
 
+  !> The files of a run with levels 1..nlevel: the level files, then the collection.
+  function vtk_run_files(output, nlevel) result(paths)
+    character(len=*), intent(in) :: output
+    integer, intent(in) :: nlevel
+    character(len=len_trim(output) + 16), allocatable :: paths(:)
+    integer :: level
+    allocate (paths(nlevel + 1))
+    do level = 1, nlevel
+      paths(level) = vtk_level_path(output, level)
+    end do
+    paths(nlevel + 1) = vtk_collection_path(output)
+  end function vtk_run_files
+
   !> Commit the level files 1..nlevel and the collection of the run `output` (all written
-  !> under their temporary names).  On failure the remaining temporary files are removed.
+  !> under their temporary names) as one set (file_commit_all).  On failure no file is
+  !> replaced and the temporary files are removed.
   subroutine vtk_commit_run(output, nlevel, st)
     character(len=*), intent(in) :: output
     integer, intent(in) :: nlevel
     type(status_t), intent(out) :: st
-    integer :: level
-    do level = 1, nlevel
-      call file_commit(vtk_level_path(output, level), st)
-      if (st%code /= 0) exit
-    end do
-    if (st%code == 0) call file_commit(vtk_collection_path(output), st)
-    if (st%code /= 0) call vtk_discard_run(output, nlevel)
+    call file_commit_all(vtk_run_files(output, nlevel), st)
   end subroutine vtk_commit_run
 
   !> Remove the temporary files of levels 1..nlevel and of the collection of the run
@@ -243,49 +243,58 @@ contains
 
   ! ------------------------------------------------------------------ private
   !> One real DataArray of `ncomp` components (values in tuple order), four per line.
-  subroutine real_array(un, name, ncomp, v, ios, extra)
-    integer, intent(in) :: un, ncomp
+  subroutine real_array(tf, name, ncomp, v, extra)
+    type(text_file_t), intent(inout) :: tf
+    integer, intent(in) :: ncomp
     character(len=*), intent(in) :: name
     real(dp), intent(in) :: v(:)
-    integer, intent(inout) :: ios
     character(len=*), intent(in), optional :: extra   !! further attributes, e.g. NumberOfTuples
-    integer :: k, k1, io
+    integer :: k, k1
     character(len=:), allocatable :: attrs
+    character(len=4 * 25) :: buf
     attrs = ''
     if (present(extra)) attrs = extra
     if (ncomp > 1) attrs = attrs // 'NumberOfComponents="' // itoa(ncomp) // '" '
-    write (un, '(a)', iostat=io) '        <DataArray type="Float64" Name="' // name // '" ' // attrs // &
-      'format="ascii">'
-    if (io /= 0) ios = io
+    call text_put(tf, '        <DataArray type="Float64" Name="' // name // '" ' // attrs // 'format="ascii">')
     do k = 1, size(v), 4
       k1 = min(size(v), k + 3)
-      write (un, '(4es25.16e3)', iostat=io) v(k:k1)
-      if (io /= 0) ios = io
+      write (buf, '(4es25.16e3)') v(k:k1)
+      call text_put(tf, trim(buf))
     end do
-    write (un, '(a)', iostat=io) '        </DataArray>'
-    if (io /= 0) ios = io
+    call text_put(tf, '        </DataArray>')
   end subroutine real_array
 
   !> One Int32 DataArray.
-  subroutine int_array(un, name, ncomp, v, ios, extra)
-    integer, intent(in) :: un, ncomp
+  subroutine int_array(tf, name, ncomp, v, extra)
+    type(text_file_t), intent(inout) :: tf
+    integer, intent(in) :: ncomp
     character(len=*), intent(in) :: name
     integer, intent(in) :: v(:)
-    integer, intent(inout) :: ios
     character(len=*), intent(in), optional :: extra
-    integer :: io
     character(len=:), allocatable :: attrs
     attrs = ''
     if (present(extra)) attrs = extra
     if (ncomp > 1) attrs = attrs // 'NumberOfComponents="' // itoa(ncomp) // '" '
-    write (un, '(a)', iostat=io) '        <DataArray type="Int32" Name="' // name // '" ' // attrs // &
-      'format="ascii">'
-    if (io /= 0) ios = io
-    write (un, '(20(1x,i0))', iostat=io) v
-    if (io /= 0) ios = io
-    write (un, '(a)', iostat=io) '        </DataArray>'
-    if (io /= 0) ios = io
+    call text_put(tf, '        <DataArray type="Int32" Name="' // name // '" ' // attrs // 'format="ascii">')
+    call put_ints(tf, v, 20)
+    call text_put(tf, '        </DataArray>')
   end subroutine int_array
+
+  !> The integers v, `per_line` to a line, each preceded by a blank.
+  subroutine put_ints(tf, v, per_line)
+    type(text_file_t), intent(inout) :: tf
+    integer, intent(in) :: v(:)
+    integer, intent(in) :: per_line
+    character(len=:), allocatable :: line
+    integer :: k, j
+    do k = 1, size(v), per_line
+      line = ''
+      do j = k, min(size(v), k + per_line - 1)
+        line = line // ' ' // itoa(v(j))
+      end do
+      call text_put(tf, line)
+    end do
+  end subroutine put_ints
 
   !> (2, n) planar vectors as the flat (3 n) tuple sequence x, y, 0.
   pure function pad_z(v) result(w)
@@ -305,16 +314,4 @@ contains
     name = path(index(path, '/', back=.true.) + 1:)
   end function base_name
 
-  !> Close the unit; on a write error delete the temporary file and report.
-  subroutine finish(un, path, ios, st)
-    integer, intent(in) :: un, ios
-    character(len=*), intent(in) :: path
-    type(status_t), intent(inout) :: st
-    integer :: io
-    close (un, iostat=io)
-    if (ios /= 0 .or. io /= 0) then
-      call file_delete(temp_name(path))
-      call set_error(st, DS_ERR_IO, 'error while writing ' // trim(path))
-    end if
-  end subroutine finish
 end module dualsig_io_vtk
