@@ -21,6 +21,10 @@
 !> p2_contact (problem P2: -Lap u = f, u = 0 on Gamma_u = sides 2,3,4, Signorini on the
 !>   bottom): u = B1 T_1(x) z(y) + B2 S(x) w(y).  Bottom: u = B1 T_1 >= 0,
 !>   du/dnu = B2 S >= 0, complementary.
+!> p1_jump, p2_jump: the same plus A J(x) B(y) with J(x) = (x - d)_+^2 (1 - x)^2 and
+!>   B(y) = y^2 (1 - y)^2, d = 0.6: the term and its normal derivative vanish on all of the
+!>   boundary, so the Signorini conditions are those of p1_contact / p2_contact, while J'' jumps
+!>   by 2 (1 - d)^2 at x = d: f jumps across a line that cuts triangles on every dyadic mesh.
 !> f is derived by hand from these formulas; the test suite checks f against finite
 !> differences of u and the Signorini conditions along the boundary.
 module dualsig_scenes
@@ -38,9 +42,12 @@ module dualsig_scenes
   real(dp), parameter :: c = 1.0_dp / 3.0_dp            !! contact/separation transition
   real(dp), parameter :: a_p1 = (4.0_dp - c) / 3.0_dp   !! makes T_a'(1) = 0
   real(dp), parameter :: amp0 = 0.5_dp, amp1 = 10.0_dp, amp2 = 5000.0_dp
+  !> p1_jump, p2_jump: the line x = d where f jumps (not a node of a dyadic mesh) and the
+  !> amplitude of the jump term A J(x) B(y).
+  real(dp), parameter :: d_jump = 0.6_dp, amp_jump = 1000.0_dp
 
   character(len=*), parameter :: scene_names = &
-    'p1_contact, p2_contact, p1_lshape_load, p2_lshape_load, p2_holed_load'
+    'p1_contact, p2_contact, p1_jump, p2_jump, p1_lshape_load, p2_lshape_load, p2_holed_load'
 
   type :: scene_t
     character(len=32) :: name = ''
@@ -89,6 +96,29 @@ contains
       allocate (scene%f, source=function_field(p2_contact_f))
       allocate (scene%u, source=function_field(p2_contact_u))
       allocate (scene%grad_u, source=function_vector_field(p2_contact_grad))
+    case ('p1_jump')
+      scene%problem = PROBLEM_P1
+      scene%has_exact = .true.
+      scene%domain = 'unit_square'
+      scene%gamma_a_markers(1:4) = [1, 2, 3, 4]
+      scene%description = 'P1 on (0,1)^2, manufactured as p1_contact plus a term whose f jumps across x = 0.6'
+      scene%nbreaks = 2
+      scene%x_breaks(1:2) = [c, d_jump]         ! a kink at x = c, a jump at x = d
+      allocate (scene%f, source=function_field(p1_jump_f))
+      allocate (scene%u, source=function_field(p1_jump_u))
+      allocate (scene%grad_u, source=function_vector_field(p1_jump_grad))
+    case ('p2_jump')
+      scene%problem = PROBLEM_P2
+      scene%has_exact = .true.
+      scene%domain = 'unit_square'
+      scene%gamma_a_markers(1) = 1
+      scene%gamma_u_markers(1:3) = [2, 3, 4]
+      scene%description = 'P2 on (0,1)^2, manufactured as p2_contact plus a term whose f jumps across x = 0.6'
+      scene%nbreaks = 2
+      scene%x_breaks(1:2) = [c, d_jump]
+      allocate (scene%f, source=function_field(p2_jump_f))
+      allocate (scene%u, source=function_field(p2_jump_u))
+      allocate (scene%grad_u, source=function_vector_field(p2_jump_grad))
     case ('p1_lshape_load')
       scene%problem = PROBLEM_P1
       scene%gamma_a_markers(1:6) = [1, 2, 3, 4, 5, 6]
@@ -144,6 +174,65 @@ contains
     w = [-y + 2.0_dp * y**2 - y**3, -1.0_dp + 4.0_dp * y - 3.0_dp * y**2, 4.0_dp - 6.0_dp * y]
     yy = [3.0_dp * y**2 - 2.0_dp * y**3, 6.0_dp * y - 6.0_dp * y**2, 6.0_dp - 12.0_dp * y]
   end subroutine y_blocks
+
+  !> J(x) = (x - d)_+^2 (1 - x)^2 and B(y) = y^2 (1 - y)^2 with two derivatives each.
+  pure subroutine jump_blocks(x, y, j, b)
+    real(dp), intent(in) :: x, y
+    real(dp), intent(out) :: j(0:2), b(0:2)
+    real(dp) :: r
+    r = max(x - d_jump, 0.0_dp)
+    j = 0.0_dp
+    if (x > d_jump) j = [r**2 * (1.0_dp - x)**2, 2.0_dp * r * (1.0_dp - x)**2 - 2.0_dp * r**2 * (1.0_dp - x), &
+                         2.0_dp * (1.0_dp - x)**2 - 8.0_dp * r * (1.0_dp - x) + 2.0_dp * r**2]
+    b = [y**2 * (1.0_dp - y)**2, 2.0_dp * y * (1.0_dp - y) * (1.0_dp - 2.0_dp * y), &
+         2.0_dp * (1.0_dp - 6.0_dp * y + 6.0_dp * y**2)]
+  end subroutine jump_blocks
+
+  pure real(dp) function p1_jump_u(x, y) result(u)
+    real(dp), intent(in) :: x, y
+    real(dp) :: j(0:2), b(0:2)
+    call jump_blocks(x, y, j, b)
+    u = p1_contact_u(x, y) + amp_jump * j(0) * b(0)
+  end function p1_jump_u
+
+  pure function p1_jump_grad(x, y) result(g)
+    real(dp), intent(in) :: x, y
+    real(dp) :: g(2)
+    real(dp) :: j(0:2), b(0:2)
+    call jump_blocks(x, y, j, b)
+    g = p1_contact_grad(x, y) + amp_jump * [j(1) * b(0), j(0) * b(1)]
+  end function p1_jump_grad
+
+  !> f = -Lap u + u for p1_jump.
+  pure real(dp) function p1_jump_f(x, y) result(f)
+    real(dp), intent(in) :: x, y
+    real(dp) :: j(0:2), b(0:2)
+    call jump_blocks(x, y, j, b)
+    f = p1_contact_f(x, y) + amp_jump * (-(j(2) * b(0) + j(0) * b(2)) + j(0) * b(0))
+  end function p1_jump_f
+
+  pure real(dp) function p2_jump_u(x, y) result(u)
+    real(dp), intent(in) :: x, y
+    real(dp) :: j(0:2), b(0:2)
+    call jump_blocks(x, y, j, b)
+    u = p2_contact_u(x, y) + amp_jump * j(0) * b(0)
+  end function p2_jump_u
+
+  pure function p2_jump_grad(x, y) result(g)
+    real(dp), intent(in) :: x, y
+    real(dp) :: g(2)
+    real(dp) :: j(0:2), b(0:2)
+    call jump_blocks(x, y, j, b)
+    g = p2_contact_grad(x, y) + amp_jump * [j(1) * b(0), j(0) * b(1)]
+  end function p2_jump_grad
+
+  !> f = -Lap u for p2_jump.
+  pure real(dp) function p2_jump_f(x, y) result(f)
+    real(dp), intent(in) :: x, y
+    real(dp) :: j(0:2), b(0:2)
+    call jump_blocks(x, y, j, b)
+    f = p2_contact_f(x, y) - amp_jump * (j(2) * b(0) + j(0) * b(2))
+  end function p2_jump_f
 
   ! ------------------------------------------------------------------ p1_contact
   pure real(dp) function p1_contact_u(x, y) result(u)
