@@ -268,7 +268,8 @@ contains
     if (scene%problem == PROBLEM_P1) then
       o%dual_res = res%dual_p1%residual
       o%dual_conv = res%dual_p1%converged .and. .not. res%dual_limit
-      o%finite = o%finite .and. all_finite(res%q)
+      if (allocated(res%q)) o%finite = o%finite .and. all_finite(res%q)
+      if (allocated(res%q_hdiv)) o%finite = o%finite .and. all_finite(res%q_hdiv)
     else
       o%dual_res = res%dual_p2%defect_solver     ! the solver's defect (the returned field is equilibrated)
       o%dual_conv = res%dual_p2%converged .and. .not. res%dual_limit
