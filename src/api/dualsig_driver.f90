@@ -13,7 +13,7 @@ module dualsig_driver
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
                             DS_WARN_NOT_CONVERGED, DS_WARN_NOT_CERTIFIED, DS_ERR_IO
-  use dualsig_problem_kinds, only: PROBLEM_P1
+  use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_mesh, only: mesh_t
   use dualsig_mesh_generate, only: mesh_rectangle, mesh_lshape, mesh_holed_square
   use dualsig_mesh_io, only: mesh_read_text, mesh_note_len
@@ -29,6 +29,7 @@ module dualsig_driver
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
                               analysis_start, analysis_next_level, exact_degree
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
+  use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
                               table_write_text, table_write_csv, table_format_row, &
                               table_format_header, observed_rate
@@ -162,8 +163,13 @@ contains
       return
     end if
 
-    write (unit, '(a)') 'dualsig: run "' // run%title // '" (scene ' // trim(run%scene%name) // &
-      ', ' // trim(cfg%source_file) // ' line ' // itoa(cfg%line) // ')'
+    if (cfg%has_problem) then
+      write (unit, '(a)') 'dualsig: run "' // run%title // '" (&problem ' // trim(cfg%problem_kind) // &
+        ', ' // trim(cfg%source_file) // ' line ' // itoa(cfg%line) // ')'
+    else
+      write (unit, '(a)') 'dualsig: run "' // run%title // '" (scene ' // trim(run%scene%name) // &
+        ', ' // trim(cfg%source_file) // ' line ' // itoa(cfg%line) // ')'
+    end if
     call mesh_quality_report(run%q0, unit)
     write (unit, '(a)') table_format_header(tab)
     done = 0
@@ -271,18 +277,24 @@ contains
   end function int8_text
 
   !> The analysis problem of a run: the scene (load, exact solution, default boundary
-  !> parts), the coarse mesh (generator or file) and the boundary markers; the quality of
-  !> the coarse mesh for the table header.
+  !> parts) or &problem, the coarse mesh (generator or file) and the boundary markers; the
+  !> quality of the coarse mesh for the table header.
   subroutine build_problem(run, st, unit)
     type(run_t), intent(inout) :: run
     type(status_t), intent(out) :: st
     integer, intent(in) :: unit
     type(gmsh_physical_t) :: phys
     associate (cfg => run%cfg, pb => run%problem)
-      call scene_lookup(cfg%scene, run%scene, st)
-      if (st%code /= 0) then
-        st%msg = cfg%source_file // ': &run scene: ' // st%msg
-        return
+      if (cfg%has_problem) then
+        run%scene%name = '&problem'
+        run%scene%description = user_problem_description(cfg)
+        run%scene%problem = merge(PROBLEM_P1, PROBLEM_P2, cfg%problem_kind == 'P1')
+      else
+        call scene_lookup(cfg%scene, run%scene, st)
+        if (st%code /= 0) then
+          st%msg = cfg%source_file // ': &run scene: ' // st%msg
+          return
+        end if
       end if
       if (any(cfg%gamma_u_markers /= 0) .or. any(cfg%gamma_a_markers /= 0)) then
         pb%gamma_u = cfg%gamma_u_markers
@@ -300,6 +312,18 @@ contains
       if (run%by_names) then
         call boundary_by_names(run, phys, st, unit)
         if (st%code /= 0) return
+      end if
+      if (cfg%has_problem) then
+        call user_problem_parts(run, unit)
+        call user_problem_build(cfg, phys, pb, st)
+        if (st%code /= 0) return
+        run%scene%has_exact = allocated(pb%u_exact)
+        if (run%scene%has_exact) then
+          allocate (run%scene%u, source=pb%u_exact)
+          allocate (run%scene%grad_u, source=pb%grad_exact)
+        end if
+        run%q0 = mesh_quality(pb%mesh)
+        return
       end if
       if (run%scene%has_exact .and. run%scene%domain == 'unit_square') then
         if (.not. on_unit_square(pb%mesh)) then
@@ -319,6 +343,37 @@ contains
       run%q0 = mesh_quality(pb%mesh)
     end associate
   end subroutine build_problem
+
+  !> Boundary parts of &problem when &run gives neither markers nor names: P1 has Signorini
+  !> conditions on the whole boundary (every marker of the mesh in Gamma_a); P2 gets u = 0
+  !> on the whole boundary (a Dirichlet problem).  A P2 problem without Gamma_a has no
+  !> contact: a warning says so.
+  subroutine user_problem_parts(run, unit)
+    type(run_t), intent(inout) :: run
+    integer, intent(in) :: unit
+    integer, allocatable :: markers(:)
+    associate (cfg => run%cfg, pb => run%problem)
+      if (.not. (run%by_names .or. any(cfg%gamma_u_markers /= 0) .or. any(cfg%gamma_a_markers /= 0))) then
+        allocate (markers(0))                     ! the markers of the mesh, ascending
+        if (pb%mesh%nbedge > 0) then
+          markers = [minval(pb%mesh%bedge_marker)]
+          do while (any(pb%mesh%bedge_marker > markers(size(markers))))
+            markers = [markers, minval(pb%mesh%bedge_marker, mask=pb%mesh%bedge_marker > markers(size(markers)))]
+          end do
+        end if
+        if (cfg%problem_kind == 'P1') then
+          pb%gamma_u = [integer ::]
+          pb%gamma_a = markers
+        else
+          pb%gamma_u = markers
+          pb%gamma_a = [integer ::]
+        end if
+      end if
+      if (cfg%problem_kind == 'P2' .and. .not. any(pb%gamma_a > 0)) write (unit, '(a)') 'warning: ' // &
+        run%where // ': problem P2 without Gamma_a: u = 0 on all of the boundary, a Dirichlet problem without ' // &
+        'contact (expected &run gamma_a_markers or gamma_a_names for the Signorini part)'
+    end associate
+  end subroutine user_problem_parts
 
   !> True when the bounding box of the mesh is the unit square (to domain_tol).
   logical function on_unit_square(mesh)
@@ -590,10 +645,13 @@ contains
   function table_header(run, mesh) result(header)
     type(run_t), intent(in) :: run
     type(mesh_t), intent(in) :: mesh
-    character(len=300), allocatable :: header(:)
+    character(len=:), allocatable :: header(:)
+    character(len=300), allocatable :: head(:)
+    character(len=:), allocatable :: echo(:)
     type(run_config_t) :: resolved
-    character(len=:), allocatable :: norm_name, parts
+    character(len=:), allocatable :: norm_name, parts, what
     character(len=300) :: line
+    integer :: k, w
     associate (cfg => run%cfg, scene => run%scene, q0 => run%q0)
       if (scene%problem == PROBLEM_P1) then
         norm_name = 'the full H1 norm ||.||_1'
@@ -601,9 +659,14 @@ contains
         norm_name = 'the H1 seminorm |.|_1'
       end if
       parts = parts_run(run)
-      header = [character(len=300) :: &
+      if (cfg%has_problem) then
+        what = 'problem: ' // trim(scene%description)
+      else
+        what = 'scene ' // trim(scene%name) // ': ' // trim(scene%description)
+      end if
+      head = [character(len=300) :: &
         'dualsig error table: ' // run%title, &
-        'scene ' // trim(scene%name) // ': ' // trim(scene%description), &
+        what, &
         'problem P' // itoa(scene%problem) // '; err_u_H1 is ' // norm_name // ' of u - u_h (the energy norm)', &
         parts, &
         'coarse mesh: ' // itoa(q0%nnode) // ' nodes, ' // itoa(q0%ntri) // ' triangles, ' // &
@@ -621,39 +684,50 @@ contains
           line = 'est = E(lambda_h, u_h) of (6.26) >= |u - u_h|_1^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
             '||grad u - lambda_h||_0; energy_lo <= |u|_1^2 = (f,u) <= energy_hi (Theorem 6.4)'
         end if
-        header = [character(len=300) :: header, line]
+        head = [character(len=300) :: head, line]
         line = 'certified = 1: est, energy_lo and energy_hi are guaranteed for the given f (f enters only through ' // &
           'its per-triangle integrals, converged to 1e-12; other integrals exact); 0: not guaranteed (see warnings)'
-        header = [character(len=300) :: header, line]
+        head = [character(len=300) :: head, line]
         if (scene%problem /= PROBLEM_P1 .and. cfg%dual_particular == 'polynomial') then
           line = 'lambda_h piecewise quadratic with div lambda_h = -Pi_1 f (L2 projection onto linears on each T); ' // &
             'f - Pi_1 f enters est and energy_hi as (h_T/pi) ||f - Pi_1 f||_T per triangle (Payne-Weinberger)'
-          header = [character(len=300) :: header, line]
+          head = [character(len=300) :: head, line]
         end if
         if (scene%has_exact) then
           line = 'exact energy (f, u) = ' // rtoa(exact_energy(mesh, scene%u, scene%grad_u, tri_rule(exact_degree), &
             scene%problem == PROBLEM_P1))
-          header = [character(len=300) :: header, line]
+          head = [character(len=300) :: head, line]
         end if
       end if
-      header = [character(len=300) :: header, 'namelist (resolved):']
+      head = [character(len=300) :: head, 'namelist (resolved):']
       resolved = cfg
       if (.not. run%by_names) then                       ! by name: the echo keeps the names
         resolved%gamma_u_markers = 0
         resolved%gamma_a_markers = 0
-        resolved%gamma_u_markers(1:size(run%problem%gamma_u)) = run%problem%gamma_u
-        resolved%gamma_a_markers(1:size(run%problem%gamma_a)) = run%problem%gamma_a
+        k = min(size(run%problem%gamma_u), size(resolved%gamma_u_markers))
+        resolved%gamma_u_markers(1:k) = run%problem%gamma_u(1:k)
+        k = min(size(run%problem%gamma_a), size(resolved%gamma_a_markers))
+        resolved%gamma_a_markers(1:k) = run%problem%gamma_a(1:k)
       end if
-      header = [header, config_echo(resolved)]
+      echo = config_echo(resolved)
       if (run%nonconverged > 0) then
         write (line, '(a,i0,a)') 'WARNING: ', run%nonconverged, ' solve(s) stopped at max_iter (see kkt_residual)'
-        header = [header, line]
+        echo = [character(len=len(echo)) :: echo, line]
       end if
       if (run%uncertified > 0) then
         write (line, '(a,i0,a)') 'WARNING: ', run%uncertified, ' level(s) with bounds that are NOT certified ' // &
           '(column certified = 0; see the warnings of the run)'
-        header = [header, line]
+        echo = [character(len=len(echo)) :: echo, line]
       end if
+      ! lines as long as the longest (an expression of &problem may be longer than 300)
+      w = max(len(head), len(echo))
+      allocate (character(len=w) :: header(size(head) + size(echo)))
+      do k = 1, size(head)
+        header(k) = head(k)
+      end do
+      do k = 1, size(echo)
+        header(size(head) + k) = echo(k)
+      end do
     end associate
   end function table_header
 
@@ -710,7 +784,7 @@ contains
     integer, intent(in) :: unit
     character(len=:), allocatable :: txt_path, csv_path, tex_path
     character(len=len_trim(run%cfg%output) + 16), allocatable :: paths(:)
-    character(len=300), allocatable :: header(:)
+    character(len=:), allocatable :: header(:)
     character(len=300) :: line
     associate (cfg => run%cfg)
       txt_path = trim(cfg%output) // '.txt'
@@ -719,7 +793,7 @@ contains
       header = table_header(run, mesh)
       if (len(stopped) > 0) then
         line = 'STOPPED after level ' // itoa(nlevel) // ' of ' // itoa(cfg%levels) // ': ' // stopped
-        header = [header(1:1), line, header(2:)]
+        header = [character(len=len(header)) :: header(1:1), line, header(2:)]
       end if
       ! (element by element: gfortran 12 corrupts the heap on some constructors of strings)
       allocate (paths(2 + merge(1, 0, cfg%latex) + merge(nlevel + 1, 0, cfg%vtk)))

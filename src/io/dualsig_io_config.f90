@@ -1,8 +1,14 @@
 !> Run configuration: namelist files for batch runs.
 !>
 !> A file is a sequence of runs.  Each run starts with a `&run` group; the `&mesh`,
-!> `&solver` and `&dual` groups that follow it (before the next `&run`) belong to that run,
-!> in any order, each at most once.  Variables not given keep their defaults, which are reset
+!> `&solver`, `&dual` and `&problem` groups that follow it (before the next `&run`) belong
+!> to that run, in any order, each at most once.  `&problem` describes one's own problem
+!> (kind, the load as an expression, per region or as nodal values, an optional exact
+!> solution) instead of a scene of the catalogue; its expressions are compiled here, so a
+!> syntax error names the file, the variable and the column.
+!>
+!> Lines are stored as strings of their own length (a line may hold an expression of many
+!> thousand characters; at most max_line_len), so blank or short lines cost little.  Variables not given keep their defaults, which are reset
 !> for every run, so each run is self-contained.  Comments start with '!'.
 !>
 !> Before the namelist read every assignment is checked against the group's variable
@@ -17,12 +23,17 @@ module dualsig_io_config
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_IO
   use dualsig_scenes, only: max_markers
   use dualsig_strings, only: itoa, rtoa, lower
+  use dualsig_expression, only: expression_t, expression_compile_input
   implicit none
   private
 
-  public :: run_config_t, read_config_file, config_echo
+  public :: run_config_t, read_config_file, config_echo, config_text, max_line_len, max_breaks, region_value_len
 
-  integer, parameter :: max_line_len = 1024     !! longest accepted line of a namelist file
+  integer, parameter :: max_line_len = 65536    !! longest accepted line of a namelist file
+  integer, parameter :: read_chunk = 4096       !! characters read at a time from a line
+  integer, parameter :: max_breaks = 16         !! &problem breaks: most abscissae
+  integer, parameter :: region_value_len = 2048 !! &problem f_region_values: longest expression
+  real(dp), parameter :: unset_break = huge(1.0_dp)  !! marks unused slots of breaks while reading
   integer, parameter :: max_levels = 14         !! largest accepted number of mesh levels
   integer, parameter :: wide = 512              !! string length for reading (longer values are rejected)
   integer, parameter :: marker_name_len = 64    !! longest physical-group name in gamma_u/a_names
@@ -35,6 +46,8 @@ module dualsig_io_config
     'method omega omega_auto tol max_iter check_every nested'
   character(len=*), parameter :: dual_items = &
     'enabled method rho tol tol_h2 max_iter ordering inner particular space'
+  character(len=*), parameter :: problem_items = &
+    'kind f u_exact breaks f_regions f_region_values f_file'
 
   type :: run_config_t
     character(len=:), allocatable :: source_file   !! the namelist file
@@ -80,12 +93,32 @@ module dualsig_io_config
     character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
     character(len=16) :: dual_particular = 'polynomial' !! P2 lambda^f: 'polynomial' or 'stream' (the paper's)
     character(len=16) :: dual_space = 'hdiv'      !! P1: 'hdiv' (RT1, tight bounds) or 'paper' (Section 3)
+    ! &problem (one's own problem instead of a scene)
+    logical :: scene_given = .false.               !! &run scene was given explicitly
+    logical :: has_problem = .false.               !! a &problem group was given
+    integer :: problem_line = 0                    !! its line
+    character(len=2) :: problem_kind = 'P2'        !! 'P1' or 'P2'
+    !> the load as an expression in x and y ('' unless given; unallocated counts as '')
+    character(len=:), allocatable :: f
+    character(len=:), allocatable :: u_exact       !! the exact solution, for verification
+    character(len=:), allocatable :: f_file        !! nodal values of f on the coarse mesh
+    integer :: nbreaks = 0                         !! abscissae of vertical lines where f jumps or kinks
+    real(dp) :: breaks(max_breaks) = 0.0_dp
+    !> region loads: Gmsh physical surface names or tags, Triangle region attributes ...
+    character(len=marker_name_len) :: f_regions(max_markers) = ''
+    !> ... and the expression of f on each of them
+    character(len=region_value_len) :: f_region_values(max_markers) = ''
   end type run_config_t
+
+  !> A line of text of its own length.
+  type :: text_line_t
+    character(len=:), allocatable :: s
+  end type text_line_t
 
   type :: group_t
     character(len=32) :: name = ''
     integer :: line = 0                              !! line of the '&name'
-    character(len=max_line_len), allocatable :: text(:)  !! assignments (comments removed)
+    type(text_line_t), allocatable :: text(:)        !! assignments (comments removed)
     integer, allocatable :: text_line(:)             !! source line of each assignment
   end type group_t
 
@@ -96,16 +129,19 @@ contains
     character(len=*), intent(in) :: path
     type(run_config_t), allocatable, intent(out) :: runs(:)
     type(status_t), intent(out) :: st
-    character(len=max_line_len), allocatable :: lines(:)
+    type(text_line_t), allocatable :: lines(:)
     type(group_t), allocatable :: groups(:)
     integer :: g, r, nrun
-    logical :: seen_mesh, seen_solver, seen_dual
+    logical :: seen(4)                    ! &mesh, &solver, &dual, &problem in the current run
+    character(len=*), parameter :: member_groups(4) = [character(len=8) :: 'mesh', 'solver', 'dual', 'problem']
+    integer :: kgroup
 
     allocate (runs(0))
     call read_lines(path, lines, st)
     if (st%code /= 0) return
     call split_groups(path, lines, groups, st)
     if (st%code /= 0) return
+    deallocate (lines)
     nrun = count(groups%name == 'run')
     if (nrun == 0) then
       call set_error(st, DS_ERR_INPUT, trim(path) // ': no &run group found (a run starts with &run)')
@@ -114,100 +150,151 @@ contains
     deallocate (runs)
     allocate (runs(nrun))
     r = 0
-    seen_mesh = .false.
-    seen_solver = .false.
-    seen_dual = .false.
+    seen = .false.
     do g = 1, size(groups)
-      select case (trim(groups(g)%name))
-      case ('run')
+      kgroup = findloc(member_groups, trim(groups(g)%name), dim=1)
+      if (groups(g)%name == 'run') then
         r = r + 1
         runs(r)%source_file = path
         runs(r)%line = groups(g)%line
-        seen_mesh = .false.
-        seen_solver = .false.
-        seen_dual = .false.
+        seen = .false.
         call apply_group(path, groups(g), run_items, runs(r), st)
-      case ('mesh', 'solver', 'dual')
+      else if (kgroup > 0) then
         if (r == 0) then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
             ': group &' // trim(groups(g)%name) // ' before the first &run group')
           return
         end if
-        if ((groups(g)%name == 'mesh' .and. seen_mesh) .or. (groups(g)%name == 'solver' .and. seen_solver) &
-            .or. (groups(g)%name == 'dual' .and. seen_dual)) then
+        if (seen(kgroup)) then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
             ': second &' // trim(groups(g)%name) // ' group in the run of line ' // itoa(runs(r)%line))
           return
         end if
-        if (groups(g)%name == 'mesh') then
-          seen_mesh = .true.
+        seen(kgroup) = .true.
+        select case (kgroup)
+        case (1)
           call apply_group(path, groups(g), mesh_items, runs(r), st)
-        else if (groups(g)%name == 'dual') then
-          seen_dual = .true.
-          call apply_group(path, groups(g), dual_items, runs(r), st)
-        else
-          seen_solver = .true.
+        case (2)
           call apply_group(path, groups(g), solver_items, runs(r), st)
-        end if
-      case default
+        case (3)
+          call apply_group(path, groups(g), dual_items, runs(r), st)
+        case default
+          runs(r)%has_problem = .true.
+          runs(r)%problem_line = groups(g)%line
+          call apply_group(path, groups(g), problem_items, runs(r), st)
+        end select
+      else
         call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
           ': unknown namelist group &' // trim(groups(g)%name) // &
-          did_you_mean(groups(g)%name, 'run mesh solver dual', '&') // '; expected &run, &mesh, &solver or &dual')
+          did_you_mean(groups(g)%name, 'run mesh solver dual problem', '&') // &
+          '; expected &run, &mesh, &solver, &dual or &problem')
         return
-      end select
+      end if
       if (st%code /= 0) return
     end do
     do r = 1, nrun
       call validate(runs(r), st)
       if (st%code /= 0) return
+      call validate_problem(runs(r), st)
+      if (st%code /= 0) return
     end do
   end subroutine read_config_file
 
-  !> The resolved configuration as namelist text (for the header of a table).
+  !> The resolved configuration as namelist text (for the header of a table): lines of at
+  !> least 300 characters, longer when an expression of &problem needs it.  Read back, the
+  !> text gives the same configuration (with &problem, &run names no scene).
   function config_echo(cfg) result(lines)
     type(run_config_t), intent(in) :: cfg
-    character(len=300), allocatable :: lines(:)
-    allocate (lines(4))
-    lines(1) = '&run title = ''' // trim(cfg%title) // ''', scene = ''' // trim(cfg%scene) // &
-      ''', output = ''' // trim(cfg%output) // ''', gamma_u_markers = ' // ilist(cfg%gamma_u_markers) // &
-      ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ', vtk = ' // ltoa(cfg%vtk) // &
-      ', latex = ' // ltoa(cfg%latex)
+    character(len=:), allocatable :: lines(:)
+    character(len=300) :: fixed(5)
+    character(len=:), allocatable :: prob
+    integer :: n, k, w
+    fixed = ''
+    fixed(1) = '&run title = ''' // trim(cfg%title) // ''''
+    if (.not. cfg%has_problem) fixed(1) = trim(fixed(1)) // ', scene = ''' // trim(cfg%scene) // ''''
+    fixed(1) = trim(fixed(1)) // ', output = ''' // trim(cfg%output) // ''', gamma_u_markers = ' // &
+      ilist(cfg%gamma_u_markers) // ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ', vtk = ' // &
+      ltoa(cfg%vtk) // ', latex = ' // ltoa(cfg%latex)
     ! (given only: the default, the available memory, depends on the machine)
-    if (cfg%max_memory_gb > 0.0_dp) lines(1) = trim(lines(1)) // ', max_memory_gb = ' // rtoa(cfg%max_memory_gb)
-    lines(1) = trim(lines(1)) // ' /'
-    lines(2) = '&mesh source = ''' // trim(cfg%mesh_source) // ''', file = ''' // trim(cfg%mesh_file) // &
+    if (cfg%max_memory_gb > 0.0_dp) fixed(1) = trim(fixed(1)) // ', max_memory_gb = ' // rtoa(cfg%max_memory_gb)
+    n = 1
+    if (any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) then
+      ! the names continue the &run group on a line of their own
+      n = 2
+      fixed(2) = '     gamma_u_names = ' // slist(cfg%gamma_u_names) // ', gamma_a_names = ' // &
+        slist(cfg%gamma_a_names)
+    end if
+    fixed(n) = trim(fixed(n)) // ' /'
+    fixed(n + 1) = '&mesh source = ''' // trim(cfg%mesh_source) // ''', file = ''' // trim(cfg%mesh_file) // &
       ''', format = ''' // trim(cfg%mesh_format) // ''', x0 = ' // rtoa(cfg%x0) // ', x1 = ' // rtoa(cfg%x1) // &
       ', y0 = ' // rtoa(cfg%y0) // &
       ', y1 = ' // rtoa(cfg%y1) // ', nx = ' // itoa(cfg%nx) // ', ny = ' // itoa(cfg%ny) // &
       ', n = ' // itoa(cfg%n) // ', pattern = ''' // trim(cfg%pattern) // ''', levels = ' // &
       itoa(cfg%levels) // ' /'
-    lines(3) = '&solver method = ''' // trim(cfg%method) // ''', omega = ' // rtoa(cfg%omega) // &
+    fixed(n + 2) = '&solver method = ''' // trim(cfg%method) // ''', omega = ' // rtoa(cfg%omega) // &
       ', omega_auto = ' // ltoa(cfg%omega_auto) // ', tol = ' // rtoa(cfg%tol) // ', max_iter = ' // &
       itoa(cfg%max_iter) // ', check_every = ' // itoa(cfg%check_every) // ', nested = ' // &
       ltoa(cfg%nested) // ' /'
-    lines(4) = '&dual enabled = ' // ltoa(cfg%dual_enabled) // ', method = ''' // trim(cfg%dual_method) // &
+    fixed(n + 3) = '&dual enabled = ' // ltoa(cfg%dual_enabled) // ', method = ''' // trim(cfg%dual_method) // &
       ''', rho = ' // rtoa(cfg%dual_rho) // ', tol = ' // rtoa(cfg%dual_tol) // ', tol_h2 = ' // &
       rtoa(cfg%dual_tol_h2) // ', max_iter = ' // itoa(cfg%dual_max_iter) // ', ordering = ''' // &
       trim(cfg%dual_ordering) // ''', inner = ''' // trim(cfg%dual_inner) // ''', particular = ''' // &
       trim(cfg%dual_particular) // ''', space = ''' // trim(cfg%dual_space) // ''' /'
-    if (any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) then
-      ! the names continue the &run group on a line of their own
-      lines(1) = lines(1)(1:len_trim(lines(1)) - 2)
-      lines = [character(len=300) :: lines(1), '     gamma_u_names = ' // slist(cfg%gamma_u_names) // &
-        ', gamma_a_names = ' // slist(cfg%gamma_a_names) // ' /', lines(2:)]
-    end if
+    n = n + 3
+    prob = ''
+    if (cfg%has_problem) prob = problem_echo(cfg)
+    w = max(len(fixed), len(prob))
+    allocate (character(len=w) :: lines(n + merge(1, 0, cfg%has_problem)))
+    do k = 1, n
+      lines(k) = fixed(k)
+    end do
+    if (cfg%has_problem) lines(n + 1) = prob
   end function config_echo
 
+  !> The &problem group of cfg as one line of namelist text.
+  function problem_echo(cfg) result(s)
+    type(run_config_t), intent(in) :: cfg
+    character(len=:), allocatable :: s
+    integer :: k
+    s = '&problem kind = ''' // trim(cfg%problem_kind) // ''''
+    if (len_trim(config_text(cfg%f)) > 0) s = s // ', f = ''' // trim(config_text(cfg%f)) // ''''
+    if (any(cfg%f_regions /= '')) s = s // ', f_regions = ' // slist(cfg%f_regions) // &
+      ', f_region_values = ' // slist(cfg%f_region_values)
+    if (len_trim(config_text(cfg%f_file)) > 0) s = s // ', f_file = ''' // trim(config_text(cfg%f_file)) // ''''
+    if (len_trim(config_text(cfg%u_exact)) > 0) s = s // ', u_exact = ''' // trim(config_text(cfg%u_exact)) // ''''
+    if (cfg%nbreaks > 0) then
+      s = s // ', breaks = '
+      do k = 1, cfg%nbreaks
+        if (k > 1) s = s // ', '
+        s = s // rtoa(cfg%breaks(k))
+      end do
+    end if
+    s = s // ' /'
+  end function problem_echo
+
+  !> The text of an optional string of the configuration ('' when it was not given).
+  pure function config_text(text) result(s)
+    character(len=:), allocatable, intent(in) :: text
+    character(len=:), allocatable :: s
+    if (allocated(text)) then
+      s = text
+    else
+      s = ''
+    end if
+  end function config_text
+
   ! ================================================================== reading
-  !> All lines of a text file.
+  !> All lines of a text file, each a string of its own length (at most max_line_len).
   subroutine read_lines(path, lines, st)
     character(len=*), intent(in) :: path
-    character(len=max_line_len), allocatable, intent(out) :: lines(:)
+    type(text_line_t), allocatable, intent(out) :: lines(:)
     type(status_t), intent(out) :: st
-    character(len=max_line_len + 1) :: buf
+    type(text_line_t), allocatable :: grown(:)
+    character(len=read_chunk) :: buf
+    character(len=:), allocatable :: cur
     character(len=256) :: msg
-    integer :: u, ios, n, sz
-    logical :: there
+    integer :: u, ios, n, sz, k
+    logical :: there, at_end
     inquire (file=path, exist=there)
     if (.not. there) then
       call set_error(st, DS_ERR_IO, trim(path) // ': namelist file not found')
@@ -220,51 +307,71 @@ contains
     end if
     allocate (lines(64))
     n = 0
-    do
-      read (u, '(a)', iostat=ios, size=sz, advance='no') buf
-      if (is_iostat_end(ios)) exit
-      if (ios /= 0 .and. .not. is_iostat_eor(ios)) then
-        call set_error(st, DS_ERR_IO, trim(path) // ': read error after line ' // itoa(n))
-        close (u)
-        return
-      end if
-      if (sz > max_line_len) then
-        call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(n + 1) // &
-          ' is longer than ' // itoa(max_line_len) // ' characters')
-        close (u)
-        return
-      end if
-      if (.not. is_iostat_eor(ios)) then       ! line longer than buf: skip the rest
-        read (u, '(a)', iostat=ios)
-      end if
+    at_end = .false.
+    do while (.not. at_end)
+      cur = ''
+      do                                   ! the line, read_chunk characters at a time
+        read (u, '(a)', iostat=ios, size=sz, advance='no') buf
+        if (is_iostat_end(ios)) then
+          at_end = .true.
+          exit
+        end if
+        if (ios /= 0 .and. .not. is_iostat_eor(ios)) then
+          call set_error(st, DS_ERR_IO, trim(path) // ': read error after line ' // itoa(n))
+          close (u)
+          return
+        end if
+        if (len(cur) + sz > max_line_len) then
+          call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(n + 1) // &
+            ' is longer than ' // itoa(max_line_len) // ' characters (expected shorter lines: a long ' // &
+            'list of values may continue on the next lines)')
+          close (u)
+          return
+        end if
+        cur = cur // buf(1:sz)
+        if (is_iostat_eor(ios)) exit
+      end do
+      if (at_end .and. len(cur) == 0) exit
       n = n + 1
-      if (n > size(lines)) lines = [lines, lines]
-      lines(n) = buf(1:sz)
+      if (n > size(lines)) then
+        allocate (grown(2 * size(lines)))
+        do k = 1, n - 1
+          call move_alloc(lines(k)%s, grown(k)%s)
+        end do
+        call move_alloc(grown, lines)
+      end if
+      call move_alloc(cur, lines(n)%s)
     end do
     close (u)
-    lines = lines(1:n)
+    allocate (grown(n))
+    do k = 1, n
+      call move_alloc(lines(k)%s, grown(k)%s)
+    end do
+    call move_alloc(grown, lines)
   end subroutine read_lines
 
   !> Split the file into namelist groups: '&name' ... '/' (quote-aware; '!' comments).
   !> Text outside a group other than blanks and comments is an error.
   subroutine split_groups(path, lines, groups, st)
     character(len=*), intent(in) :: path
-    character(len=*), intent(in) :: lines(:)
+    type(text_line_t), intent(in) :: lines(:)
     type(group_t), allocatable, intent(out) :: groups(:)
     type(status_t), intent(out) :: st
-    integer :: i, k, g, ng, name_end
-    integer :: owner(size(lines))          ! group of each line's body text (0: none)
-    character(len=max_line_len) :: body(size(lines))
-    character(len=32) :: gname(size(lines))
-    integer :: gline(size(lines))
+    integer :: i, k, g, ng, name_end, nbody
+    integer, allocatable :: owner(:)       ! group of each kept line's body text
+    integer, allocatable :: body_line(:)   ! its line
+    type(text_line_t), allocatable :: body(:)
+    character(len=32), allocatable :: gname(:)
+    integer, allocatable :: gline(:)
     logical :: inside
     character(len=1) :: quote
-    character(len=max_line_len) :: cur
+    character(len=:), allocatable :: cur
     inside = .false.
     ng = 0
-    owner = 0
+    nbody = 0
+    allocate (owner(16), body_line(16), body(16), gname(0), gline(0))
     do i = 1, size(lines)
-      cur = lines(i)
+      cur = lines(i)%s // ' '             ! (a blank after the end: scans may look one past it)
       k = 1
       if (.not. inside) then
         k = verify(cur, ' ' // achar(9))
@@ -272,7 +379,7 @@ contains
         if (cur(k:k) == '!') cycle
         if (cur(k:k) /= '&') then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // &
-            ': expected the start of a namelist group (&run, &mesh, &solver or &dual), found "' // &
+            ': expected the start of a namelist group (&run, &mesh, &solver, &dual or &problem), found "' // &
             trim(cur(k:min(len_trim(cur), k + 30))) // '"')
           allocate (groups(0))
           return
@@ -283,8 +390,8 @@ contains
           name_end = name_end + 1
         end do
         ng = ng + 1
-        gname(ng) = lower(cur(k + 1:name_end - 1))
-        gline(ng) = i
+        gname = [character(len=32) :: gname, lower(cur(k + 1:name_end - 1))]
+        gline = [gline, i]
         inside = .true.
         cur(1:name_end - 1) = ' '
         k = name_end
@@ -297,10 +404,10 @@ contains
         else if (cur(k:k) == '''' .or. cur(k:k) == '"') then
           quote = cur(k:k)
         else if (cur(k:k) == '!') then
-          cur(k:) = ' '
+          cur = cur(1:k - 1)
           exit
         else if (cur(k:k) == '/') then
-          cur(k:) = ' '
+          cur = cur(1:k - 1)
           inside = .false.
           exit
         end if
@@ -312,21 +419,43 @@ contains
         return
       end if
       if (len_trim(cur) > 0) then
-        owner(i) = ng
-        body(i) = cur
+        nbody = nbody + 1
+        if (nbody > size(owner)) call grow_body()
+        owner(nbody) = ng
+        body_line(nbody) = i
+        body(nbody)%s = trim(cur)
       end if
     end do
     allocate (groups(ng))
     do g = 1, ng
       groups(g)%name = gname(g)
       groups(g)%line = gline(g)
-      groups(g)%text = pack(body, owner == g)
-      groups(g)%text_line = pack([(i, i=1, size(lines))], owner == g)
+      groups(g)%text_line = pack(body_line(1:nbody), owner(1:nbody) == g)
+      allocate (groups(g)%text(size(groups(g)%text_line)))
+      k = 0
+      do i = 1, nbody
+        if (owner(i) /= g) cycle
+        k = k + 1
+        call move_alloc(body(i)%s, groups(g)%text(k)%s)
+      end do
     end do
     if (inside) then
       call set_error(st, DS_ERR_INPUT, trim(path) // ': group &' // trim(gname(ng)) // &
         ' of line ' // itoa(gline(ng)) // ' is not closed by "/"')
     end if
+  contains
+    !> Double the capacity of the body lists.
+    subroutine grow_body()
+      type(text_line_t), allocatable :: b2(:)
+      integer :: j
+      allocate (b2(2 * size(body)))
+      do j = 1, size(body)
+        call move_alloc(body(j)%s, b2(j)%s)
+      end do
+      call move_alloc(b2, body)
+      owner = [owner, owner]
+      body_line = [body_line, body_line]
+    end subroutine grow_body
   end subroutine split_groups
 
   !> Check the variable names of a group, then read it into cfg.
@@ -336,17 +465,27 @@ contains
     character(len=*), intent(in) :: items
     type(run_config_t), intent(inout) :: cfg
     type(status_t), intent(out) :: st
-    character(len=max_line_len), allocatable :: assign(:)
+    type(text_line_t), allocatable :: assign_text(:)
+    character(len=:), allocatable :: assign(:), one(:)
     integer, allocatable :: assign_line(:)
     character(len=64) :: name
     character(len=256) :: msg
-    integer :: a, ios
+    integer :: a, ios, width
     type(run_config_t) :: probe
-    call split_assignments(grp, assign, assign_line, st)
+    call split_assignments(grp, assign_text, assign_line, st)
     if (st%code /= 0) then
       st%msg = trim(path) // ': ' // st%msg
       return
     end if
+    ! as an array of strings of the group's longest assignment (not of the longest line)
+    width = 1
+    do a = 1, size(assign_text)
+      width = max(width, len(assign_text(a)%s))
+    end do
+    allocate (character(len=width) :: assign(size(assign_text)))
+    do a = 1, size(assign_text)
+      assign(a) = assign_text(a)%s
+    end do
     do a = 1, size(assign)
       name = assignment_name(assign(a))
       if (index(' ' // items // ' ', ' ' // trim(name) // ' ') == 0) then
@@ -355,13 +494,17 @@ contains
           '; expected one of: ' // items)
         return
       end if
+      if (grp%name == 'run' .and. name == 'scene') cfg%scene_given = .true.
     end do
     call read_group(grp%name, assign, cfg, ios, msg)
     if (ios == 0) return
-    ! find the assignment whose value does not read
+    ! find the assignment whose value does not read (one at a time, copied: gfortran 12
+    ! passes a section of a deferred-length array to an assumed-length dummy wrongly)
+    allocate (character(len=width) :: one(1))
     do a = 1, size(assign)
       probe = cfg
-      call read_group(grp%name, assign(a:a), probe, ios, msg)
+      one(1) = assign(a)
+      call read_group(grp%name, one, probe, ios, msg)
       if (ios /= 0) then
         name = assignment_name(assign(a))
         call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(grp%name) // ', line ' // &
@@ -378,16 +521,16 @@ contains
   !> identifier followed (after an optional subscript) by '=' outside quotes.
   subroutine split_assignments(grp, assign, assign_line, st)
     type(group_t), intent(in) :: grp
-    character(len=max_line_len), allocatable, intent(out) :: assign(:)
+    type(text_line_t), allocatable, intent(out) :: assign(:)
     integer, allocatable, intent(out) :: assign_line(:)
     type(status_t), intent(out) :: st
     integer :: t, k, j, n, depth
     character(len=1) :: quote
-    character(len=max_line_len) :: cur
+    character(len=:), allocatable :: cur
     allocate (assign(0), assign_line(0))
     n = 0
     do t = 1, size(grp%text)
-      cur = grp%text(t)
+      cur = grp%text(t)%s // ' '          ! (a blank after the end: scans may look one past it)
       quote = ' '
       k = 1
       do while (k <= len_trim(cur))
@@ -418,9 +561,11 @@ contains
           end if
           if (j <= len_trim(cur) .and. cur(j:j) == '=') then
             n = n + 1
-            assign = [character(len=max_line_len) :: assign, cur(k:)]
+            call append_text(assign, cur(k:))
             assign_line = [assign_line, grp%text_line(t)]
-            if (n > 1) call cut_previous(assign(n - 1), cur(k:))
+            if (n > 1) then
+              if (assign_line(n - 1) == assign_line(n)) call cut_previous(assign(n - 1)%s, cur(k:))
+            end if
             k = j + 1
             cycle
           end if
@@ -439,26 +584,41 @@ contains
     call glue_continuations(grp, assign, assign_line)
   end subroutine split_assignments
 
+  !> Append a copy of `text` to the list `list` (element by element: gfortran 12 mishandles
+  !> some array constructors of derived types with deferred-length components).
+  subroutine append_text(list, text)
+    type(text_line_t), allocatable, intent(inout) :: list(:)
+    character(len=*), intent(in) :: text
+    type(text_line_t), allocatable :: grown(:)
+    integer :: j
+    allocate (grown(size(list) + 1))
+    do j = 1, size(list)
+      call move_alloc(list(j)%s, grown(j)%s)
+    end do
+    grown(size(grown))%s = text
+    call move_alloc(grown, list)
+  end subroutine append_text
+
   !> Remove from `prev` the text of the following assignment `next` (same line).
   pure subroutine cut_previous(prev, next)
-    character(len=*), intent(inout) :: prev
+    character(len=:), allocatable, intent(inout) :: prev
     character(len=*), intent(in) :: next
     integer :: k
     k = index(prev, trim(next), back=.true.)
-    if (k > 1) prev(k:) = ' '
+    if (k > 1) prev = prev(1:k - 1)
   end subroutine cut_previous
 
   !> Lines of a group that contain no assignment continue the value list of the previous one.
   subroutine glue_continuations(grp, assign, assign_line)
     type(group_t), intent(in) :: grp
-    character(len=max_line_len), intent(inout) :: assign(:)
+    type(text_line_t), intent(inout) :: assign(:)
     integer, intent(in) :: assign_line(:)
     integer :: t, a
     do t = 1, size(grp%text)
       if (any(assign_line == grp%text_line(t))) cycle
       do a = size(assign), 1, -1
         if (assign_line(a) < grp%text_line(t)) then
-          assign(a) = trim(assign(a)) // ' ' // adjustl(grp%text(t))
+          assign(a)%s = trim(assign(a)%s) // ' ' // trim(adjustl(grp%text(t)%s))
           exit
         end if
       end do
@@ -472,7 +632,7 @@ contains
     type(run_config_t), intent(inout) :: cfg
     integer, intent(out) :: ios
     character(len=*), intent(out) :: msg
-    character(len=max_line_len + 16) :: rec(size(assign) + 2)
+    character(len=len(assign) + 16) :: rec(size(assign) + 2)
     ! &run
     character(len=wide) :: title
     character(len=wide) :: scene
@@ -500,6 +660,9 @@ contains
 
     if (gname == 'dual') then
       call read_dual_group(assign, cfg, ios, msg)
+      return
+    else if (gname == 'problem') then
+      call read_problem_group(assign, cfg, ios, msg)
       return
     end if
 
@@ -626,7 +789,7 @@ contains
     type(run_config_t), intent(inout) :: cfg
     integer, intent(out) :: ios
     character(len=*), intent(out) :: msg
-    character(len=max_line_len + 16) :: rec(size(assign) + 2)
+    character(len=len(assign) + 16) :: rec(size(assign) + 2)
     logical :: enabled
     character(len=wide) :: method, ordering, inner, particular, space
     real(dp) :: rho, tol, tol_h2
@@ -674,6 +837,131 @@ contains
     cfg%dual_particular = particular(1:len(cfg%dual_particular))
     cfg%dual_space = space(1:len(cfg%dual_space))
   end subroutine read_dual_group
+
+  !> Read the assignments of the &problem group into cfg.  Its strings are read into
+  !> variables as long as the assignments, so that no expression is cut.
+  subroutine read_problem_group(assign, cfg, ios, msg)
+    character(len=*), intent(in) :: assign(:)
+    type(run_config_t), intent(inout) :: cfg
+    integer, intent(out) :: ios
+    character(len=*), intent(out) :: msg
+    character(len=len(assign) + 16) :: rec(size(assign) + 2)
+    character(len=len(assign)) :: f, u_exact, f_file
+    character(len=wide) :: kind
+    character(len=wide) :: f_regions(max_markers)
+    character(len=max(wide, len(assign))) :: f_region_values(max_markers)
+    real(dp) :: breaks(max_breaks)
+    integer :: k
+    namelist /problem/ kind, f, u_exact, breaks, f_regions, f_region_values, f_file
+    logical :: saved_halting(size(ieee_usual))
+    rec(1) = '&problem'
+    do k = 1, size(assign)
+      rec(k + 1) = assign(k)
+    end do
+    rec(size(rec)) = '/'
+    msg = ''
+    kind = cfg%problem_kind
+    f = config_text(cfg%f)
+    u_exact = config_text(cfg%u_exact)
+    f_file = config_text(cfg%f_file)
+    breaks = unset_break
+    breaks(1:cfg%nbreaks) = cfg%breaks(1:cfg%nbreaks)
+    f_regions = cfg%f_regions
+    f_region_values = cfg%f_region_values
+    call fp_traps_off(saved_halting)
+    read (rec, nml=problem, iostat=ios, iomsg=msg)
+    call ieee_set_halting_mode(ieee_usual, saved_halting)
+    if (ios /= 0) return
+    if (.not. all(ieee_is_finite(breaks))) then
+      call bad_value('a finite real number', ios, msg)
+      return
+    end if
+    if (too_long(kind, cfg%problem_kind)) then
+      call bad_value('a shorter string', ios, msg)
+      return
+    end if
+    do k = 1, max_markers
+      if (too_long(f_regions(k), cfg%f_regions(k))) then
+        call bad_value('names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
+        return
+      end if
+      if (too_long(f_region_values(k), cfg%f_region_values(k))) then
+        call bad_value('expressions of at most ' // itoa(region_value_len) // ' characters', ios, msg)
+        return
+      end if
+    end do
+    cfg%problem_kind = kind(1:len(cfg%problem_kind))
+    cfg%f = trim(f)
+    cfg%u_exact = trim(u_exact)
+    cfg%f_file = trim(f_file)
+    cfg%nbreaks = count(breaks /= unset_break)
+    cfg%breaks = 0.0_dp
+    cfg%breaks(1:cfg%nbreaks) = pack(breaks, breaks /= unset_break)
+    do k = 1, max_markers
+      cfg%f_regions(k) = f_regions(k)(1:marker_name_len)
+      cfg%f_region_values(k) = f_region_values(k)      ! (no longer: checked by too_long)
+    end do
+  end subroutine read_problem_group
+
+  !> Checks of &problem: the kind, exactly one form of the load, no scene besides it,
+  !> the expressions compile (a syntax error names the file, the variable and the column).
+  subroutine validate_problem(cfg, st)
+    type(run_config_t), intent(inout) :: cfg
+    type(status_t), intent(out) :: st
+    character(len=:), allocatable :: where
+    type(expression_t) :: e
+    integer :: nforms, nreg, nval, k
+    if (.not. cfg%has_problem) return
+    where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': '
+    cfg%problem_kind = upper2(cfg%problem_kind)
+    nreg = count(cfg%f_regions /= '')
+    nval = count(cfg%f_region_values /= '')
+    nforms = count([len_trim(config_text(cfg%f)) > 0, nreg + nval > 0, len_trim(config_text(cfg%f_file)) > 0])
+    if (cfg%scene_given) then
+      call set_error(st, DS_ERR_INPUT, where // '&run scene = ''' // trim(cfg%scene) // ''' and &problem (line ' // &
+        itoa(cfg%problem_line) // ') both describe the problem; expected either a scene of the catalogue ' // &
+        '(&run scene) or one''s own problem (&problem), not both')
+    else if (cfg%problem_kind /= 'P1' .and. cfg%problem_kind /= 'P2') then
+      call set_error(st, DS_ERR_INPUT, where // '&problem kind = ''' // trim(cfg%problem_kind) // &
+        '''; expected P1 (-Lap u + u = f, Signorini on Gamma_a) or P2 (-Lap u = f, u = 0 on Gamma_u)')
+    else if (nforms /= 1) then
+      call set_error(st, DS_ERR_INPUT, where // '&problem gives the load ' // itoa(nforms) // ' times; expected ' // &
+        'exactly one of f (an expression), f_regions with f_region_values (per region), f_file (nodal values)')
+    else if (nreg /= nval .or. any((cfg%f_regions == '') .neqv. (cfg%f_region_values == ''))) then
+      call set_error(st, DS_ERR_INPUT, where // '&problem f_regions names ' // itoa(nreg) // &
+        ' region(s) and f_region_values gives ' // itoa(nval) // ' value(s); expected one value per region, ' // &
+        'in the same order')
+    end if
+    if (st%code /= 0) return
+    if (len_trim(config_text(cfg%f)) > 0) then
+      call expression_compile_input(trim(cfg%f), cfg%source_file, 'problem', 'f', e, st)
+      if (st%code /= 0) return
+    end if
+    if (len_trim(config_text(cfg%u_exact)) > 0) then
+      call expression_compile_input(trim(cfg%u_exact), cfg%source_file, 'problem', 'u_exact', e, st)
+      if (st%code /= 0) return
+    end if
+    do k = 1, max_markers
+      if (cfg%f_regions(k) == '') cycle
+      call expression_compile_input(trim(cfg%f_region_values(k)), cfg%source_file, 'problem', &
+        'f_region_values(' // itoa(k) // ')', e, st)
+      if (st%code /= 0) then
+        st%msg = st%msg // ' (the value of region ''' // trim(cfg%f_regions(k)) // ''')'
+        return
+      end if
+    end do
+  end subroutine validate_problem
+
+  !> 'p1' -> 'P1'.
+  pure function upper2(s) result(t)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: t
+    integer :: k
+    t = s
+    do k = 1, len(s)
+      if (s(k:k) >= 'a' .and. s(k:k) <= 'z') t(k:k) = achar(iachar(s(k:k)) - 32)
+    end do
+  end function upper2
 
   !> Range checks of a run configuration, each naming the variable and what is expected.
   subroutine validate(cfg, st)
@@ -785,8 +1073,15 @@ contains
     character(len=*), intent(in) :: name
     character(len=:), allocatable :: s
     select case (trim(name))
-    case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering', 'inner', 'particular')
+    case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering', 'inner', 'particular', &
+          'kind', 'f', 'u_exact', 'f_file')
       s = 'a quoted string'
+    case ('breaks')
+      s = 'a list of at most ' // itoa(max_breaks) // ' real numbers'
+    case ('f_regions')
+      s = 'a list of at most 16 quoted region names or tags'
+    case ('f_region_values')
+      s = 'a list of at most 16 quoted expressions'
     case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb')
       s = 'a real number'
     case ('omega_auto', 'nested', 'enabled', 'vtk', 'latex')

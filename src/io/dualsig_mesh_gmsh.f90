@@ -73,12 +73,15 @@ module dualsig_mesh_gmsh
     logical :: have_elements = .false.
     integer :: nt = 0, nl = 0
     integer, allocatable :: tri(:,:), tri_id(:), tri_line(:)      !! node indices 1..nn
+    integer, allocatable :: tri_phys(:)                            !! physical surface tag (0: none)
     integer, allocatable :: lin(:,:), lin_phys(:), lin_line(:)    !! node indices 1..nn
     integer :: skipped(max_type + 1) = 0                           !! skipped elements per type
     ! 4.1 entities: physical tags of the curves
     logical :: have_entities = .false.
     integer :: ncurve = 0
     integer, allocatable :: curve_tag(:), curve_nphys(:), curve_phys_start(:), curve_phys(:)
+    ! 4.1 entities: the first physical tag of each surface (0: none)
+    integer, allocatable :: surf_tag(:), surf_phys(:)
   end type gmsh_data_t
 
 contains
@@ -328,6 +331,8 @@ contains
     allocate (g%curve_tag(counts(2)), g%curve_nphys(counts(2)), g%curve_phys_start(counts(2) + 1))
     allocate (g%curve_phys(0))
     g%curve_phys_start(1) = 1
+    allocate (g%surf_tag(counts(3)), g%surf_phys(counts(3)))
+    g%surf_phys = 0
     do d = 0, 3
       do k = 1, counts(d + 1)
         if (.not. data_line(rd, '$Entities', k, counts(d + 1), entity_layout(d), st)) return
@@ -352,6 +357,12 @@ contains
             if (.not. mesh_reader_int(rd, first_phys + j, 'a physical tag', v, st)) return
             g%curve_phys = [g%curve_phys, abs(v)]
           end do
+        else if (d == 2) then
+          g%surf_tag(k) = v
+          if (np > 0) then
+            if (.not. mesh_reader_int(rd, first_phys + 1, 'a physical tag', v, st)) return
+            g%surf_phys(k) = abs(v)
+          end if
         end if
       end do
     end do
@@ -568,7 +579,7 @@ contains
     type(mesh_text_reader_t), intent(inout) :: rd
     type(gmsh_data_t), intent(inout) :: g
     type(status_t), intent(inout) :: st
-    integer :: nblock, n, b, edim, etag, etype, nin, k, m, c, p, id
+    integer :: nblock, n, b, edim, etag, etype, nin, k, m, c, p, id, sphys
     if (.not. block_header(rd, '$Elements', '<numEntityBlocks> <numElements> <minElementTag> <maxElementTag>', &
                            nblock, n, st)) return
     call alloc_elements(g)
@@ -605,11 +616,15 @@ contains
           return
         end if
       end if
+      sphys = 0                                   ! a triangle's region: its surface's physical tag
+      if (etype == type_triangle .and. edim == 2 .and. g%have_entities) then
+        if (findloc(g%surf_tag, etag, dim=1) > 0) sphys = g%surf_phys(findloc(g%surf_tag, etag, dim=1))
+      end if
       do k = 1, nin
         if (.not. data_line(rd, '$Elements', m + k, n, '<elementTag> <nodeTag>...', st)) return
         if (.not. mesh_reader_int(rd, 1, 'the element tag', id, st)) return
         if (c == 0) then
-          call add_element(rd, g, id, etype, 1, 0, st)
+          call add_element(rd, g, id, etype, 1, sphys, st)
         else if (g%curve_nphys(c) == 0) then
           call add_element(rd, g, id, etype, 1, 0, st)
         else
@@ -636,6 +651,7 @@ contains
   subroutine alloc_elements(g)
     type(gmsh_data_t), intent(inout) :: g
     allocate (g%tri(3, initial_capacity), g%tri_id(initial_capacity), g%tri_line(initial_capacity))
+    allocate (g%tri_phys(initial_capacity))
     allocate (g%lin(2, initial_capacity), g%lin_phys(initial_capacity), g%lin_line(initial_capacity))
   end subroutine alloc_elements
 
@@ -682,6 +698,7 @@ contains
       g%tri(:, g%nt) = v
       g%tri_id(g%nt) = id
       g%tri_line(g%nt) = rd%lineno
+      g%tri_phys(g%nt) = phys
     else
       if (g%nl == size(g%lin_phys)) call grow_lines(g)
       g%nl = g%nl + 1
@@ -704,6 +721,9 @@ contains
     call move_alloc(t2, g%tri)
     call move_alloc(i1, g%tri_id)
     call move_alloc(i2, g%tri_line)
+    allocate (i1(2 * n))
+    i1(1:n) = g%tri_phys
+    call move_alloc(i1, g%tri_phys)
   end subroutine grow_triangles
 
   !> Double the capacity of the line list.
@@ -874,6 +894,7 @@ contains
     mesh%tri = g%tri(:, keep)
     g%tri_id = g%tri_id(keep)
     g%tri_line = g%tri_line(keep)
+    if (any(g%tri_phys(keep) > 0)) mesh%tri_region = g%tri_phys(keep)   ! the physical surfaces
 
     ! --- nodes of the triangles only ---
     call mesh_drop_unused_nodes(mesh, new_index, ndropped)

@@ -14,7 +14,10 @@
 !>   .edge   <nedge> <nbmark 0|1>
 !>           <id> <a> <b> [marker]                           (nedge lines)
 !> Numbering starts at 0 or at 1, as the first node id says; ids are consecutive.  Node
-!> attributes and node markers are checked and ignored; triangle attributes likewise.
+!> attributes and node markers are checked and ignored.  The first triangle attribute, when
+!> there is one, is the triangle's region (`mesh%tri_region`; triangle -A writes the regional
+!> attribute of the .poly file there) when every triangle's is an integer (otherwise the
+!> mesh has no regions).  Further attributes are ignored.
 !>
 !> Boundary markers: a boundary side takes the marker (> 0) of the segment (or edge) on it;
 !> marker 0 means none, and a boundary side without a marker is an error.  Segments on
@@ -283,6 +286,7 @@ contains
       return
     end if
     mesh%ntri = nt
+    if (nattr > 0) allocate (mesh%tri_region(nt))
     base = -1
     do k = 1, nt
       if (.not. entry_line(rd, k, nt, layout, 4 + nattr, st)) return
@@ -295,6 +299,14 @@ contains
       end do
       do j = 1, nattr
         if (.not. mesh_reader_real(rd, 4 + j, 'a triangle attribute', attr, st)) return
+        if (j > 1) cycle
+        ! the first attribute is the region attribute (triangle -A): the triangle's region
+        if (.not. allocated(mesh%tri_region)) cycle
+        if (abs(attr) < real(huge(1), dp) .and. attr == anint(attr)) then
+          mesh%tri_region(k) = nint(attr)
+        else
+          deallocate (mesh%tri_region)              ! not integers: no regions
+        end if
       end do
     end do
   end subroutine read_triangles

@@ -30,6 +30,9 @@ module dualsig_mesh
     integer, allocatable :: tri(:,:)            !! (3, ntri) vertices, counter-clockwise
     integer, allocatable :: bedge_nodes(:,:)    !! (2, nbedge) boundary edge, domain on the left
     integer, allocatable :: bedge_marker(:)     !! (nbedge) boundary marker (> 0)
+    !> (ntri) region of each triangle (Gmsh physical surface tag, Triangle region attribute);
+    !> unallocated when the mesh source has no regions.  Refinement: children inherit it.
+    integer, allocatable :: tri_region(:)
     ! ---- derived by mesh_build_topology ----
     integer, allocatable :: edge_nodes(:,:)     !! (2, nedge) end nodes, edge_nodes(1,e) < edge_nodes(2,e)
     integer, allocatable :: edge_tri(:,:)       !! (2, nedge) adjacent triangles; edge_tri(2,e) = 0 on the boundary

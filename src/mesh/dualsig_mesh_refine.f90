@@ -8,6 +8,7 @@
 !>   vertices v1, v2, v3 and the midpoints m1, m2, m3 of local edges 1, 2, 3 (sides
 !>   v1v2, v2v3, v3v1) they are, all counter-clockwise:
 !>     4t-3 = (v1, m1, m3),  4t-2 = (m1, v2, m2),  4t-1 = (m3, m2, v3),  4t = (m1, m2, m3);
+!>   each child has the region (`tri_region`) of its parent, when the coarse mesh has regions;
 !> - coarse boundary edge j (a -> b, midpoint m) becomes fine boundary edges 2j-1 = (a, m)
 !>   and 2j = (m, b), both with the marker of j.
 !> Every child is similar to its parent, so angles (and the alpha-beta regularity of the
@@ -59,6 +60,13 @@ contains
       fine%tri(:, 4 * t - 1) = [m(3), m(2), v(3)]
       fine%tri(:, 4 * t) = [m(1), m(2), m(3)]
     end do
+
+    if (allocated(coarse%tri_region)) then
+      allocate (fine%tri_region(fine%ntri))
+      do t = 1, coarse%ntri
+        fine%tri_region(4 * t - 3:4 * t) = coarse%tri_region(t)
+      end do
+    end if
 
     do j = 1, coarse%nbedge
       e = nn + coarse%bedge_edge(j)
