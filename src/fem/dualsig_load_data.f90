@@ -40,6 +40,11 @@ module dualsig_load_data
   real(dp), parameter :: load_rel_tol = 1.0e-12_dp
   !> Subdivision levels of a triangle at most (4^depth pieces where f is not resolved).
   integer, parameter :: load_max_depth = 10
+  !> From this subdivision depth on, a piece whose disagreement (per unit area) did not at
+  !> least halve over max_stalls consecutive levels is not subdivided further (and not
+  !> converged).
+  integer, parameter :: stagnation_depth = 3
+  integer, parameter :: max_stalls = 3
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
@@ -93,7 +98,7 @@ contains
       area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
       diameter = piece_size(xy)
       data%diameter(t) = diameter
-      call adapt(xy, 0, 0.0_dp, .false., -1.0_dp, s, ok1)
+      call adapt(xy, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
       if (.not. all(ieee_is_finite(s))) then
         call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
           rtoa_pair(centroid) // ')')
@@ -103,7 +108,7 @@ contains
       data%moment(:, t) = s(2:3)
       data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
       slope = data%slope(:, t)
-      call adapt(xy, 0, data%mean(t), .true., -1.0_dp, s, ok2)
+      call adapt(xy, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
       data%osc(t) = sqrt(max(s(1), 0.0_dp))
       data%converged(t) = ok1 .and. ok2
     end do
@@ -113,17 +118,19 @@ contains
 
     !> The sums of a pass over the piece xy at subdivision depth: the first pass (fbar
     !> unused) or, with second, int (f - fbar - slope . (x - x_T))^2 and int f^2.
-    recursive subroutine adapt(xy, depth, fbar, second, density, s, ok)
+    recursive subroutine adapt(xy, depth, fbar, second, density, parent_rate, stalls, s, ok)
       real(dp), intent(in) :: xy(2, 3)
       integer, intent(in) :: depth
       real(dp), intent(in) :: fbar
       logical, intent(in) :: second
       real(dp), intent(in) :: density     !! the triangle's scale per unit area (< 0: set it at depth 0)
+      real(dp), intent(in) :: parent_rate !! the parent piece's disagreement per unit area
+      integer, intent(in) :: stalls       !! consecutive levels above this one where it did not halve
       real(dp), intent(out) :: s(nsum)
       logical, intent(out) :: ok
-      real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), tol, rho
+      real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), tol, rho, rate
       logical :: ok_child
-      integer :: c
+      integer :: c, stalled
       coarse = piece_sums(xy, fbar, second)
       call children(xy, kids)
       fine = 0.0_dp
@@ -146,6 +153,21 @@ contains
       else
         ok = abs(fine(1) - coarse(1)) <= tol .and. all(abs(fine(2:3) - coarse(2:3)) <= tol * diameter)
       end if
+      ! the disagreement per unit area falls by about 2^6 per level where the rule resolves f;
+      ! where it has not at least halved over max_stalls consecutive levels (from
+      ! stagnation_depth on) f jumps inside the piece or its evaluation is at its rounding
+      ! noise: further subdivision cannot converge
+      if (second) then
+        rate = abs(fine(1) - coarse(1)) / piece_area(xy)
+      else
+        rate = max(abs(fine(1) - coarse(1)), maxval(abs(fine(2:3) - coarse(2:3))) / diameter) / piece_area(xy)
+      end if
+      stalled = 0
+      if (rate > 0.5_dp * parent_rate) stalled = stalls + 1
+      if (.not. ok .and. depth >= stagnation_depth .and. stalled >= max_stalls) then
+        s = fine
+        return
+      end if
       if (ok .or. depth >= load_max_depth .or. .not. all(ieee_is_finite(fine))) then
         s = fine
         return
@@ -153,7 +175,7 @@ contains
       s = 0.0_dp
       ok = .true.
       do c = 1, 4
-        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, child, ok_child)
+        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, rate, stalled, child, ok_child)
         s = s + child
         ok = ok .and. ok_child
       end do
