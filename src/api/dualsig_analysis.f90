@@ -17,8 +17,9 @@
 module dualsig_analysis
   use dualsig_kinds, only: dp
   use dualsig_clock, only: wall_seconds
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_status, only: status_t, set_error, is_ok, is_warning, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
-                            DS_WARN_NOT_CERTIFIED
+                            DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter
@@ -296,6 +297,12 @@ contains
       end if
       res%h = mesh_h(mesh)
       call primal_assemble(mesh, pb%kind, pb%f, an%load_rule, sys)
+      if (.not. all(ieee_is_finite(sys%load))) then
+        call set_error(st, DS_ERR_NUMERIC, 'analysis: level ' // itoa(an%level) // ': the load vector is not ' // &
+          'finite: f is NaN or infinite at a quadrature point, or its integrals overflow (expected a finite f ' // &
+          'of moderate size on the whole domain)')
+        return
+      end if
       call primal_constraints(mesh, pb%kind, pb%gamma_u, pb%gamma_a, sys%kind, sys%bnd, st, &
                               every_loop_gamma_u=an%settings%dual .and. pb%kind /= PROBLEM_P1)
       if (.not. is_ok(st)) return
@@ -313,8 +320,30 @@ contains
           call dual_level_p2(an, res, st)
         end if
       end if
+      if (is_ok(st)) call check_finite_results(an%level, res, st)
     end associate
   end subroutine solve_level
+
+  !> A level's solution and bounds must be finite: f may be NaN between the points where it
+  !> was checked, or so large that the energies overflow.  DS_ERR_NUMERIC otherwise.
+  subroutine check_finite_results(level, res, st)
+    integer, intent(in) :: level
+    type(level_result_t), intent(in) :: res
+    type(status_t), intent(inout) :: st
+    character(len=*), parameter :: why = ' (f is NaN or infinite somewhere in the domain, or so large ' // &
+      'that the energies overflow; expected a finite f of moderate size)'
+    if (allocated(res%u)) then
+      if (.not. all(ieee_is_finite(res%u))) then
+        call set_error(st, DS_ERR_NUMERIC, 'analysis: level ' // itoa(level) // ': the primal solution u_h is not ' // &
+          'finite' // why)
+        return
+      end if
+    end if
+    if (.not. res%has_dual) return
+    if (.not. (ieee_is_finite(res%est) .and. ieee_is_finite(res%energy_lo) .and. ieee_is_finite(res%energy_hi))) then
+      call set_error(st, DS_ERR_NUMERIC, 'analysis: level ' // itoa(level) // ': the bounds are not finite' // why)
+    end if
+  end subroutine check_finite_results
 
   !> The primal QP (Section 2): the primal-dual active-set method (one CHOLMOD factor,
   !> the ordering chosen by select_ordering) or projected SOR (omega given or from a

@@ -103,11 +103,42 @@ contains
       call run_one(runs(r), st_run, out)
       if (.not. is_ok(st_run)) then
         st = st_run
+        if (r < size(runs)) st%msg = st%msg // '; the batch stopped there: ' // later_runs(runs(r + 1:))
         return
       end if
       if (st_run%code /= DS_OK) call set_warning(st, st_run%code, st_run%msg)
     end do
   end subroutine run_namelist_file
+
+  !> The runs a failed run leaves out: 'the run of line 7 ("title") of f.nml was not run' or
+  !> 'the runs of lines 7 ("a") and 9 ("b") of f.nml were not run'.
+  function later_runs(rest) result(s)
+    type(run_config_t), intent(in) :: rest(:)
+    character(len=:), allocatable :: s
+    integer :: k
+    s = ''
+    do k = 1, size(rest)
+      if (k > 1 .and. k == size(rest)) then
+        s = s // ' and '
+      else if (k > 1) then
+        s = s // ', '
+      end if
+      s = s // itoa(rest(k)%line) // ' ("' // trim(run_title(rest(k))) // '")'
+    end do
+    if (size(rest) == 1) then
+      s = 'the run of line ' // s // ' of ' // trim(rest(1)%source_file) // ' was not run'
+    else
+      s = 'the runs of lines ' // s // ' of ' // trim(rest(1)%source_file) // ' were not run'
+    end if
+  end function later_runs
+
+  !> The title of a run: &run title, else its output name.
+  function run_title(cfg) result(s)
+    type(run_config_t), intent(in) :: cfg
+    character(len=:), allocatable :: s
+    s = trim(cfg%title)
+    if (len(s) == 0) s = trim(cfg%output)
+  end function run_title
 
   !> One run (run_levels); a failed run leaves none of its files, not even the temporary
   !> .vtu files written level by level.
@@ -142,8 +173,7 @@ contains
     integer :: level, done
 
     run%cfg = cfg
-    run%title = trim(cfg%title)
-    if (len(run%title) == 0) run%title = trim(cfg%output)
+    run%title = run_title(cfg)
     run%where = cfg%source_file // ': run of line ' // itoa(cfg%line)
     call check_output_writable(cfg, st)
     if (st%code /= 0) return
@@ -178,9 +208,10 @@ contains
       if (.not. is_ok(st)) exit
       call analysis_next_level(an, res, st)
       if (.not. is_ok(st)) then
-        ! a mesh or assembly error names the run; a solver error the level
+        ! a mesh or assembly error names the run; a solver (numerical) error the run, its title and the level
         if (res%ndof > 0) then
           st%msg = 'level ' // itoa(level) // ': ' // st%msg
+          if (done == 0) st%msg = run%where // ' ("' // run%title // '"), ' // st%msg
         else
           st%msg = run%where // ': ' // st%msg
         end if
@@ -204,7 +235,7 @@ contains
       ! the finished levels survive the failure of a later one
       call write_run_files(run, an%mesh, tab, done, st%msg, st_write, unit)
       if (is_ok(st_write)) then
-        st%msg = run%where // ': ' // st%msg // '; the run stopped there: the tables of levels 1 to ' // &
+        st%msg = run%where // ' ("' // run%title // '"), ' // st%msg // '; the run stopped there: the tables of levels 1 to ' // &
           itoa(done) // ' were written to ' // trim(cfg%output) // '.txt and .csv'
       else
         st%msg = st%msg // '; writing the tables of levels 1 to ' // itoa(done) // ' failed too: ' // st_write%msg

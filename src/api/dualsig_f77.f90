@@ -171,6 +171,11 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
     info = 2
     return
   end if
+  ! huge A and F can overflow to a non-finite iterate or residual: a numerical failure
+  if (.not. (ieee_is_finite(res) .and. all(ieee_is_finite(x)))) then
+    info = 2
+    return
+  end if
   where (kind == BOUND_FIXED) x = bnd
   if (res > tol) info = 1
 

@@ -152,8 +152,23 @@ contains
     type(dssign_options_t), intent(in) :: opt
     integer, intent(in) :: level
     character(len=*), intent(in) :: msg
-    if (opt%verbosity >= level) write (opt%out, '(a)') msg
+    integer :: ios
+    if (opt%verbosity < level) return
+    if (.not. unit_writable(opt%out)) return       ! never write on a unit the host did not open for writing
+    write (opt%out, '(a)', iostat=ios) msg          ! a failed write is the host's unit's business: no stop
   end subroutine dssign_print
+
+  !> True when unit u is connected and may be written (inquire: opened, WRITE= not 'NO').
+  logical function unit_writable(u) result(ok)
+    integer, intent(in) :: u
+    character(len=16) :: wr
+    logical :: opened
+    integer :: ios
+    ok = .false.
+    inquire (unit=u, opened=opened, write=wr, iostat=ios)
+    if (ios /= 0 .or. .not. opened) return
+    ok = wr /= 'NO'
+  end function unit_writable
 
   !> Arguments 1 to 8 of DSSIGN, in order, and the mesh they describe (triangles made
   !> counter-clockwise: all or none were clockwise, flipped marks those swapped; boundary
@@ -470,6 +485,9 @@ contains
       msg = 'IOPT(4) = ' // itoa(iopt(4)) // ' (printing: 0, 1 or 2)'
     else if (iopt(5) < 0) then
       msg = 'IOPT(5) = ' // itoa(iopt(5)) // ' (output unit: 0 default or > 0)'
+    else if (iopt(4) > 0 .and. iopt(5) > 0 .and. .not. unit_writable(max(iopt(5), 1))) then
+      msg = 'IOPT(5) = ' // itoa(iopt(5)) // ' names a unit that is not open for writing (IOPT(4) = ' // &
+        itoa(iopt(4)) // ' asks for messages; open it for writing, or 0: standard output)'
     else if (iopt(6) < 0 .or. iopt(6) > 5) then
       msg = 'IOPT(6) = ' // itoa(iopt(6)) // ' (ordering: 0/1 amd, 2 metis, 3 best, 4 natural, 5 nd)'
     else if (opt%dual_max_iter < 1) then
@@ -592,6 +610,12 @@ contains
     if (res%has_dual) then
       bounds = [res%est, res%energy_lo, res%energy_hi, res%oscillation]
       call vertex_field(iprob, an%mesh, problem, res, itri, flipped, q)
+      if (.not. (all(ieee_is_finite(q)) .and. all(ieee_is_finite(bounds)))) then
+        info = info_failed
+        call dssign_print(opt, 1, 'DSSIGN: INFO = ' // itoa(info) // ': the dual field or the bounds are not ' // &
+          'finite (FSRC is NaN or infinite somewhere in the domain, or so large that they overflow)')
+        return
+      end if
       call dssign_print(opt, 1, 'DSSIGN: E = ' // rtoa(bounds(1)) // ', energy bounds ' // rtoa(bounds(2)) // &
         ' <= (f,u) <= ' // rtoa(bounds(3)))
     end if

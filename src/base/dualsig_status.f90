@@ -11,9 +11,9 @@ module dualsig_status
   implicit none
   private
 
-  public :: status_t, set_error, set_warning, is_ok, is_error, is_warning
+  public :: status_t, set_error, set_warning, is_ok, is_error, is_warning, set_alloc_error
   public :: DS_OK, DS_WARN_NOT_CONVERGED, DS_WARN_NOT_CERTIFIED, DS_ERR_INPUT, DS_ERR_MESH, DS_ERR_IO, &
-            DS_ERR_NUMERIC, DS_ERR_LAPACK
+            DS_ERR_NUMERIC, DS_ERR_LAPACK, DS_ERR_MEMORY
 
   !> Status codes.  Codes > 0 and < 100 are warnings (the result exists but is
   !> not fully trustworthy); codes >= 100 are errors (no result).
@@ -25,6 +25,7 @@ module dualsig_status
   integer, parameter :: DS_ERR_IO = 102             !! file could not be read or written
   integer, parameter :: DS_ERR_NUMERIC = 103        !! breakdown, NaN, divergence
   integer, parameter :: DS_ERR_LAPACK = 104         !! LAPACK returned info /= 0
+  integer, parameter :: DS_ERR_MEMORY = 105         !! an allocation failed (out of memory)
 
   type :: status_t
     integer :: code = DS_OK                     !! DS_OK, a warning or an error code
@@ -41,6 +42,19 @@ contains
     st%code = code
     st%msg = msg
   end subroutine set_error
+
+  !> Record an out-of-memory error: "out of memory allocating <nbytes> bytes for <what>".
+  !> Every size-dependent allocation of the library has stat= and reports through this.
+  pure subroutine set_alloc_error(st, nbytes, what)
+    use, intrinsic :: iso_fortran_env, only: int64
+    type(status_t), intent(inout) :: st
+    integer(int64), intent(in) :: nbytes             !! the size of the failed request
+    character(len=*), intent(in) :: what             !! what it was for
+    character(len=24) :: buf
+    write (buf, '(i0)') max(nbytes, 0_int64)
+    st%code = DS_ERR_MEMORY
+    st%msg = 'out of memory allocating ' // trim(buf) // ' bytes for ' // what
+  end subroutine set_alloc_error
 
   !> Record a warning unless an error is already recorded.
   pure subroutine set_warning(st, code, msg)

@@ -19,11 +19,12 @@
 module dualsig_io_config
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: ieee_exceptions, only: ieee_usual, ieee_get_halting_mode, ieee_set_halting_mode
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_IO
   use dualsig_scenes, only: max_markers
   use dualsig_strings, only: itoa, rtoa, lower
   use dualsig_expression, only: expression_t, expression_compile_input
+  use dualsig_io_files, only: regular_file_size
   implicit none
   private
 
@@ -371,8 +372,16 @@ contains
     nbody = 0
     allocate (owner(16), body_line(16), body(16), gname(0), gline(0))
     do i = 1, size(lines)
-      cur = lines(i)%s // ' '             ! (a blank after the end: scans may look one past it)
+      cur = namelist_line(lines(i)%s, i) // ' '  ! (a blank after the end: scans may look one past it)
       k = 1
+      if (inside .and. starts_group(cur)) then
+        ! a new group before the '/' of the open one: name the open group, not a variable
+        call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(gname(ng)) // ' group of line ' // &
+          itoa(gline(ng)) // ' is not closed by ''/'' (line ' // itoa(i) // ' starts another group; expected ' // &
+          'a ''/'' at the end of the &' // trim(gname(ng)) // ' group)')
+        allocate (groups(0))
+        return
+      end if
       if (.not. inside) then
         k = verify(cur, ' ' // achar(9))
         if (k == 0) cycle
@@ -440,8 +449,8 @@ contains
       end do
     end do
     if (inside) then
-      call set_error(st, DS_ERR_INPUT, trim(path) // ': group &' // trim(gname(ng)) // &
-        ' of line ' // itoa(gline(ng)) // ' is not closed by "/"')
+      call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(gname(ng)) // ' group of line ' // &
+        itoa(gline(ng)) // ' is not closed by ''/'' (expected a ''/'' at its end)')
     end if
   contains
     !> Double the capacity of the body lists.
@@ -457,6 +466,33 @@ contains
       body_line = [body_line, body_line]
     end subroutine grow_body
   end subroutine split_groups
+
+  !> Line i of a namelist file as the group reader sees it: a UTF-8 byte order mark at the
+  !> start of the file dropped, tabs read as blanks (both are common in edited files).
+  pure function namelist_line(line, i) result(cur)
+    character(len=*), intent(in) :: line
+    integer, intent(in) :: i
+    character(len=len(line)) :: cur
+    character(len=3), parameter :: bom = achar(239) // achar(187) // achar(191)
+    integer :: k
+    cur = line
+    if (i == 1 .and. len(line) >= 3) then
+      if (line(1:3) == bom) cur = line(4:)
+    end if
+    do k = 1, len_trim(cur)
+      if (cur(k:k) == achar(9)) cur(k:k) = ' '
+    end do
+  end function namelist_line
+
+  !> True when the line starts a namelist group: '&' and a letter after optional blanks.
+  pure logical function starts_group(line)
+    character(len=*), intent(in) :: line
+    integer :: k
+    starts_group = .false.
+    k = verify(line, ' ')
+    if (k == 0 .or. k >= len(line)) return
+    starts_group = line(k:k) == '&' .and. is_ident_start(line(k + 1:k + 1))
+  end function starts_group
 
   !> Check the variable names of a group, then read it into cfg.
   subroutine apply_group(path, grp, items, cfg, st)
@@ -971,7 +1007,7 @@ contains
     where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': '
     if (len_trim(cfg%output) == 0) then
       call set_error(st, DS_ERR_INPUT, where // '&run output must name the output files (no extension)')
-    else if (cfg%output(len_trim(cfg%output):len_trim(cfg%output)) == '/') then
+    else if (cfg%output(len_trim(cfg%output):len_trim(cfg%output)) == '/' .or. names_directory(cfg%output)) then
       call set_error(st, DS_ERR_INPUT, where // '&run output = ''' // trim(cfg%output) // &
         ''' names a directory; expected a path of the table files without extension, e.g. ''out/run1''')
     else if (cfg%max_memory_gb < 0.0_dp) then
@@ -984,6 +1020,10 @@ contains
         '"; expected rectangle, lshape, holed_square or file')
     else if (cfg%mesh_source == 'file' .and. len_trim(cfg%mesh_file) == 0) then
       call set_error(st, DS_ERR_INPUT, where // '&mesh file must be given when source = ''file''')
+    else if (cfg%mesh_source /= 'file' .and. len_trim(cfg%mesh_file) > 0) then
+      call set_error(st, DS_ERR_INPUT, where // '&mesh file = ''' // trim(cfg%mesh_file) // ''' is given but ' // &
+        '&mesh source = ''' // trim(cfg%mesh_source) // '''; expected source = ''file'' to read the mesh file ' // &
+        '(or no file for a generated mesh)')
     else if (.not. any(cfg%mesh_format == [character(len=16) :: 'auto', 'dualsig', 'gmsh', 'triangle'])) then
       call set_error(st, DS_ERR_INPUT, where // '&mesh format = "' // trim(cfg%mesh_format) // &
         '"; expected auto, dualsig, gmsh or triangle')
@@ -1046,6 +1086,20 @@ contains
   end subroutine validate
 
   ! ================================================================== small helpers
+  !> True when the output name is '.' or '..' (as its last component) or an existing
+  !> directory: the tables would be hidden files '<dir>/.txt'.
+  logical function names_directory(output)
+    character(len=*), intent(in) :: output
+    character(len=:), allocatable :: base, why
+    integer(i8) :: nbytes
+    integer :: k
+    k = index(trim(output), '/', back=.true.)
+    base = trim(output(k + 1:))
+    names_directory = base == '.' .or. base == '..'
+    if (.not. names_directory) names_directory = .not. regular_file_size(trim(output), nbytes, why) .and. &
+      why == 'a directory'
+  end function names_directory
+
   !> Remember the halting modes of the usual IEEE exceptions and disarm them: a namelist
   !> value such as 1e999 must give an error message, not a floating-point trap.
   subroutine fp_traps_off(saved)

@@ -13,8 +13,9 @@
 !> Every temporary file is registered with the signal handler of `cleanup_on_signals`,
 !> which removes the registered files before the process dies of the signal.
 module dualsig_io_files
-  use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char, c_ptr, c_null_ptr, c_associated, c_size_t
-  use dualsig_kinds, only: dp
+  use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char, c_ptr, c_null_ptr, c_associated, c_size_t, &
+                                         c_long_long
+  use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, DS_ERR_IO
   use dualsig_strings, only: itoa
   implicit none
@@ -23,6 +24,7 @@ module dualsig_io_files
   public :: file_exists, file_delete, file_commit, file_commit_all, ensure_parent_dir, temp_name
   public :: text_file_t, text_open, text_put, text_close, text_abandon
   public :: cleanup_on_signals, temp_files_registered, errno_text, memory_available_gb
+  public :: regular_file_size
 
   !> An output file being written under its temporary name.
   type :: text_file_t
@@ -78,6 +80,11 @@ module dualsig_io_files
     integer(c_int) function c_temp_count() bind(c, name='dualsig_temp_count')
       import :: c_int
     end function c_temp_count
+    integer(c_int) function c_file_kind(path, nbytes) bind(c, name='dualsig_file_kind')
+      import :: c_int, c_char, c_long_long
+      character(kind=c_char), intent(in) :: path(*)
+      integer(c_long_long), intent(out) :: nbytes
+    end function c_file_kind
     integer(c_int) function c_cleanup_install() bind(c, name='dualsig_cleanup_install')
       import :: c_int
     end function c_cleanup_install
@@ -132,6 +139,35 @@ contains
     n = c_errno_text(int(err, c_int), buf, int(len(buf), c_int))
     text = buf(1:max(0, min(n, len(buf))))
   end function errno_text
+
+  !> Whether `path` is a regular file, checked with stat(2) before anything opens it (a FIFO
+  !> would block the open, a device such as /dev/zero or a directory is no input file).
+  !> ok: nbytes is its size; otherwise why says what it is ('a directory', 'a FIFO (named
+  !> pipe)', ..., or the error of stat, e.g. 'No such file or directory').
+  logical function regular_file_size(path, nbytes, why) result(ok)
+    character(len=*), intent(in) :: path
+    integer(i8), intent(out) :: nbytes
+    character(len=:), allocatable, intent(out) :: why
+    integer(c_long_long) :: sz
+    integer(c_int) :: kind
+    kind = c_file_kind(path // c_null_char, sz)
+    nbytes = int(sz, i8)
+    ok = kind == 0
+    select case (kind)
+    case (0)
+      why = ''
+    case (1)
+      why = 'a directory'
+    case (2)
+      why = 'a FIFO (named pipe)'
+    case (3)
+      why = 'a device'
+    case (4)
+      why = 'a socket or special file'
+    case default
+      why = errno_text(-int(kind))
+    end select
+  end function regular_file_size
 
   !> Delete `path` if it exists and forget it as a temporary file (errors are ignored:
   !> used for clean-up).

@@ -20,6 +20,9 @@
  * 4. getpid(2) for the per-process temporary names, link(2), rename(2), unlink(2) with
  *    their errno, and strerror for the messages.
  *
+ * 5. dualsig_file_kind: stat(2) of an input file before it is opened, so that readers take
+ *    regular files only (a FIFO would block the open, a device or a directory never ends).
+ *
  * Every int-returning function returns 0 or an errno value unless stated otherwise.
  */
 #define _POSIX_C_SOURCE 200809L
@@ -28,6 +31,7 @@
 #include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <unistd.h>
 
@@ -88,6 +92,24 @@ int dualsig_errno_text(int err, char *buf, int len)
     if (len <= 0) return 0;
     snprintf(buf, (size_t)len, "%s", strerror(err));
     return (int)strlen(buf);
+}
+
+/* The kind of the file `path` (symbolic links followed): 0 a regular file (its size in
+ * *size), 1 a directory, 2 a FIFO, 3 a character or block device, 4 a socket or anything
+ * else; a negative value is -errno of a failed stat(2) (e.g. -ENOENT).  Never opens it. */
+int dualsig_file_kind(const char *path, long long *size)
+{
+    struct stat sb;
+    *size = 0;
+    if (stat(path, &sb) != 0) return errno ? -errno : -EIO;
+    if (S_ISREG(sb.st_mode)) {
+        *size = (long long)sb.st_size;
+        return 0;
+    }
+    if (S_ISDIR(sb.st_mode)) return 1;
+    if (S_ISFIFO(sb.st_mode)) return 2;
+    if (S_ISCHR(sb.st_mode) || S_ISBLK(sb.st_mode)) return 3;
+    return 4;
 }
 
 /* ------------------------------------------------------------------ temporary files */

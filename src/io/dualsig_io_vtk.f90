@@ -199,12 +199,37 @@ contains
     call text_put(tf, '  <Collection>')
     do level = 1, nlevel
       call text_put(tf, '    <DataSet timestep="' // itoa(level) // '" group="" part="0" file="' // &
-        base_name(vtk_level_path(output, level)) // '"/>')
+        xml_escape(base_name(vtk_level_path(output, level))) // '"/>')
     end do
     call text_put(tf, '  </Collection>')
     call text_put(tf, '</VTKFile>')
     call text_close(tf, st)
   end subroutine vtk_write_collection
+
+  !> text with the XML special characters & < > " ' written as entities (a file name in an
+  !> attribute of the .pvd file may hold them).
+  pure function xml_escape(text) result(s)
+    character(len=*), intent(in) :: text
+    character(len=:), allocatable :: s
+    integer :: k
+    s = ''
+    do k = 1, len(text)
+      select case (text(k:k))
+      case ('&')
+        s = s // '&amp;'
+      case ('<')
+        s = s // '&lt;'
+      case ('>')
+        s = s // '&gt;'
+      case ('"')
+        s = s // '&quot;'
+      case ('''')
+        s = s // '&apos;'
+      case default
+        s = s // text(k:k)
+      end select
+    end do
+  end function xml_escape
 
   !> The files of a run with levels 1..nlevel: the level files, then the collection.
   function vtk_run_files(output, nlevel) result(paths)

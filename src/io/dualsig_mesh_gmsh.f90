@@ -31,6 +31,7 @@ module dualsig_mesh_gmsh
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t, mesh_diameter
   use dualsig_mesh_io, only: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, &
+                             mesh_reader_count_ok, &
                              mesh_reader_expect, mesh_reader_field, mesh_reader_int, mesh_reader_real, &
                              mesh_reader_fail, mesh_quote, mesh_check_file_geometry, mesh_finish_topology, &
                              mesh_drop_unused_nodes, mesh_mark_boundary, merge_sort_pairs, &
@@ -326,6 +327,7 @@ contains
         call mesh_reader_fail(rd, 'negative entity count ' // itoa(counts(d)) // ' (expected an integer >= 0)', st)
         return
       end if
+      if (.not. mesh_reader_count_ok(rd, counts(d), 'the entity count', st)) return
     end do
     g%ncurve = counts(2)
     allocate (g%curve_tag(counts(2)), g%curve_nphys(counts(2)), g%curve_phys_start(counts(2) + 1))
@@ -791,7 +793,9 @@ contains
     if (n < 0) then
       ok = .false.
       call mesh_reader_fail(rd, 'negative count ' // itoa(n) // ' (expected ' // what // ', an integer >= 0)', st)
+      return
     end if
+    ok = mesh_reader_count_ok(rd, n, what, st)
   end function count_line
 
   !> The header line of a 4.1 $Nodes or $Elements section: four integers; returns the number
@@ -814,7 +818,10 @@ contains
       ok = .false.
       call mesh_reader_fail(rd, 'negative count in ' // mesh_quote(rd%line) // ' (expected ' // layout // &
         ', counts >= 0)', st)
+      return
     end if
+    ok = mesh_reader_count_ok(rd, nblock, 'the number of entity blocks', st)
+    if (ok) ok = mesh_reader_count_ok(rd, n, 'the number of items', st)
   end function block_header
 
   !> Data line k of n of a section: it must exist and not be a '$' keyword.

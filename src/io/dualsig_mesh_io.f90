@@ -51,13 +51,15 @@ module dualsig_mesh_io
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
   use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_strings, only: itoa
+  use dualsig_io_files, only: regular_file_size
   implicit none
   private
 
   public :: mesh_read_text, mesh_write_text
   ! shared with the Gmsh and Triangle readers (dualsig_mesh_gmsh, dualsig_mesh_triangle)
   public :: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, mesh_reader_expect, &
-            mesh_reader_field, mesh_reader_int, mesh_reader_real, mesh_reader_fail, mesh_quote
+            mesh_reader_field, mesh_reader_int, mesh_reader_real, mesh_reader_fail, mesh_quote, &
+            mesh_reader_count_ok, mesh_max_line_len
   public :: mesh_check_file_geometry, mesh_finish_topology, mesh_drop_unused_nodes, mesh_mark_boundary
   public :: merge_sort_pairs, lower_bound, mesh_note_len
 
@@ -68,7 +70,16 @@ module dualsig_mesh_io
   !> Characters of an offending line quoted in error messages.
   integer, parameter :: echo_len = 60
   !> Characters read per chunk of a line (lines may be longer).
-  integer, parameter :: chunk_len = 256
+  integer, parameter :: chunk_len = 4096
+  !> Longest line accepted (1 MiB): a longer one is an error (a binary file, a file without
+  !> line ends such as /dev/zero copied to disk), read in linear time up to the cap.
+  integer, parameter :: max_line_len = 1048576
+  !> Longest line the mesh readers accept (public name).
+  integer, parameter :: mesh_max_line_len = max_line_len
+  !> iostat of read_line for a line longer than max_line_len (no gfortran code is this value).
+  integer, parameter :: ios_too_long = 987654
+  !> Fewest bytes one counted item of a header takes in the file: a character and a line end.
+  integer, parameter :: min_item_bytes = 2
   !> Largest accepted coordinate magnitude: squares of lengths and areas cannot overflow.
   real(dp), parameter :: max_abs_coord = 1.0e100_dp
   !> Decimal exponent of max_abs_coord: numbers of a larger order are rejected before conversion.
@@ -92,6 +103,8 @@ module dualsig_mesh_io
     integer :: nf = 0                         !! number of fields of the current record
     integer :: fb(max_fields) = 0             !! first character of field k
     integer :: fe(max_fields) = 0             !! last character of field k
+    integer(i8) :: nbytes = -1                !! size of the file (stat), -1 if unknown
+    integer(i8) :: consumed = 0               !! bytes of the lines read so far
   end type reader_t
 
   !> Line reader of the Gmsh and Triangle readers: records with any number of fields.
@@ -103,6 +116,8 @@ module dualsig_mesh_io
     integer :: nf = 0                         !! number of fields of the current record
     integer, allocatable :: fb(:), fe(:)      !! first and last character of field k
     logical :: hash_comments = .false.        !! '#' starts a comment that runs to the line end
+    integer(i8) :: nbytes = -1                !! size of the file (stat), -1 if unknown
+    integer(i8) :: consumed = 0               !! bytes of the lines read so far
   end type mesh_text_reader_t
   !> Length of the notes (skipped elements, dropped nodes, ...) the file readers return.
   integer, parameter :: mesh_note_len = 200
@@ -126,6 +141,7 @@ contains
 
     if (present(nflipped)) nflipped = 0
     rd%path = path
+    if (.not. input_file_ok(path, rd%nbytes, st)) return
     iom = ''
     open (newunit=rd%unit, file=path, status='old', action='read', form='formatted', &
           access='sequential', iostat=ios, iomsg=iom)
@@ -323,11 +339,10 @@ contains
 
     found = .false.
     do
-      call read_line(rd%unit, rd%line, ios, iom)
+      call read_line(rd%unit, rd%line, ios, iom, rd%consumed)
       if (ios == iostat_end) return
       if (ios /= 0) then
-        call set_error(st, DS_ERR_IO, "mesh file '" // rd%path // "', line " // &
-          itoa(rd%lineno + 1) // ': read error (' // trim(iom) // '); expected a text file')
+        call read_failure(rd%path, rd%lineno + 1, ios, iom, st)
         return
       end if
       rd%lineno = rd%lineno + 1
@@ -340,38 +355,135 @@ contains
     call split_fields(rd)
   end subroutine next_record
 
-  !> Read one line of any length; a carriage return at its end is dropped.  ios is 0, an
-  !> error code, or iostat_end when no line is left.
-  subroutine read_line(u, line, ios, iom)
+  !> Read one line of up to max_line_len characters in linear time (a buffer that doubles);
+  !> a carriage return at its end is dropped.  ios is 0, an error code, iostat_end when no
+  !> line is left, or ios_too_long (the rest of the line is not read).  consumed grows by
+  !> the bytes of the line and its line end.
+  subroutine read_line(u, line, ios, iom, consumed)
     integer, intent(in) :: u
     character(len=:), allocatable, intent(out) :: line
     integer, intent(out) :: ios
     character(len=*), intent(inout) :: iom
-    character(len=chunk_len) :: buf
-    integer :: sz, n
+    integer(i8), intent(inout) :: consumed
+    character(len=chunk_len) :: chunk
+    character(len=:), allocatable :: buf, grown
+    integer :: sz, n, cap, istat
 
-    sz = 0
-    read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) buf
-    line = buf(1:sz)
+    n = 0
+    cap = chunk_len
+    allocate (character(len=cap) :: buf)
     do
+      sz = 0
+      read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) chunk
+      if (sz > 0) then
+        if (n + sz > max_line_len) then
+          ios = ios_too_long
+          consumed = consumed + n + sz
+          return
+        end if
+        if (n + sz > cap) then
+          cap = min(max(2 * cap, n + sz), max_line_len)
+          allocate (character(len=cap) :: grown, stat=istat)
+          if (istat /= 0) then
+            ios = ios_too_long
+            return
+          end if
+          grown(1:n) = buf(1:n)
+          call move_alloc(grown, buf)
+        end if
+        buf(n + 1:n + sz) = chunk(1:sz)
+        n = n + sz
+      end if
       if (ios == iostat_eor) then
         ios = 0
         exit
       end if
-      if (ios == iostat_end .and. len(line) > 0) then
+      if (ios == iostat_end .and. n > 0) then
         ios = 0                              ! last line without a line end
         exit
       end if
       if (ios /= 0) return
-      sz = 0
-      read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) buf
-      line = line // buf(1:sz)
     end do
-    n = len(line)
+    consumed = consumed + n + 1
     if (n > 0) then
-      if (line(n:n) == achar(13)) line = line(1:n - 1)
+      if (buf(n:n) == achar(13)) n = n - 1
     end if
+    line = buf(1:n)
   end subroutine read_line
+
+  !> The error of a failed line read: a line over max_line_len, or the runtime's message.
+  subroutine read_failure(path, lineno, ios, iom, st)
+    character(len=*), intent(in) :: path, iom
+    integer, intent(in) :: lineno, ios
+    type(status_t), intent(inout) :: st
+    if (ios == ios_too_long) then
+      call set_error(st, DS_ERR_MESH, "mesh file '" // path // "', line " // itoa(lineno) // &
+        ': the line is longer than ' // itoa(max_line_len) // ' characters (expected a text mesh file ' // &
+        'with shorter lines: a binary file, or a file without line ends?)')
+    else
+      call set_error(st, DS_ERR_IO, "mesh file '" // path // "', line " // itoa(lineno) // &
+        ': read error (' // trim(iom) // '); expected a text file')
+    end if
+  end subroutine read_failure
+
+  !> Before a mesh file is opened: it must be a regular file (a FIFO would block the open, a
+  !> device such as /dev/zero or a directory is no mesh file).  A path stat(2) cannot see is
+  !> left to the open, which names the error.  nbytes: the file's size, -1 if unknown.
+  logical function input_file_ok(path, nbytes, st) result(ok)
+    character(len=*), intent(in) :: path
+    integer(i8), intent(out) :: nbytes
+    type(status_t), intent(inout) :: st
+    character(len=:), allocatable :: why
+    ok = regular_file_size(path, nbytes, why)
+    if (ok) return
+    nbytes = -1
+    if (why == 'a directory' .or. why == 'a FIFO (named pipe)' .or. why == 'a device' .or. &
+        why == 'a socket or special file') then
+      call set_error(st, DS_ERR_IO, "mesh file '" // path // "': not a regular file but " // why // &
+        ' (expected a regular mesh file; it was not opened)')
+    else
+      ok = .true.                            ! the open reports a missing or unreadable file
+    end if
+  end function input_file_ok
+
+  !> A count n of items announced in a header must fit in the rest of the file: every item
+  !> takes at least min_item_bytes bytes, so a larger count is an error before anything of
+  !> that size is allocated.  `what` names the count in the message.
+  logical function count_fits(path, lineno, nbytes, consumed, n, what, st) result(ok)
+    character(len=*), intent(in) :: path, what
+    integer, intent(in) :: lineno
+    integer(i8), intent(in) :: nbytes, consumed
+    integer, intent(in) :: n
+    type(status_t), intent(inout) :: st
+    integer(i8) :: left
+    ok = .true.
+    if (nbytes < 0) return
+    left = max(nbytes - consumed, 0_i8)
+    if (int(n, i8) * min_item_bytes <= left) return
+    ok = .false.
+    call set_error(st, DS_ERR_MESH, "mesh file '" // path // "', line " // itoa(lineno) // ': ' // what // ' ' // &
+      itoa(n) // ' cannot fit in the ' // i8toa(left) // ' bytes left in the file (every entry takes at least ' // &
+      itoa(min_item_bytes) // ' bytes; expected the true count: a wrong header or a truncated file?)')
+  end function count_fits
+
+  !> Decimal text of a 64-bit integer.
+  pure function i8toa(v) result(s)
+    integer(i8), intent(in) :: v
+    character(len=:), allocatable :: s
+    character(len=24) :: buf
+    write (buf, '(i0)') v
+    s = trim(buf)
+  end function i8toa
+
+  !> The check of count_fits for the line reader of the Gmsh and Triangle readers, at its
+  !> current line: .false. (and an error) when `n` items cannot fit in the rest of the file.
+  logical function mesh_reader_count_ok(rd, n, what, st) result(ok)
+    type(mesh_text_reader_t), intent(in) :: rd
+    integer, intent(in) :: n
+    character(len=*), intent(in) :: what
+    type(status_t), intent(inout) :: st
+    ok = count_fits(rd%path, rd%lineno, rd%nbytes, rd%consumed, n, what, st)
+  end function mesh_reader_count_ok
 
   !> Split the current line into blank- or tab-separated fields (at most max_fields stored,
   !> all counted).
@@ -449,6 +561,7 @@ contains
       call fail(rd, "negative '" // name // "' count " // itoa(count) // ' (expected an integer >= 0)', st)
       return
     end if
+    if (.not. count_fits(rd%path, rd%lineno, rd%nbytes, rd%consumed, count, "the '" // name // "' count", st)) return
     ok = .true.
   end function section_header
 
@@ -841,6 +954,7 @@ contains
     rd%path = path
     rd%hash_comments = hash_comments
     allocate (rd%fb(initial_field_slots), rd%fe(initial_field_slots))
+    if (.not. input_file_ok(path, rd%nbytes, st)) return
     iom = ''
     open (newunit=rd%unit, file=path, status='old', action='read', form='formatted', &
           access='sequential', iostat=ios, iomsg=iom)
@@ -872,11 +986,10 @@ contains
     found = .false.
     do
       iom = ''
-      call read_line(rd%unit, rd%line, ios, iom)
+      call read_line(rd%unit, rd%line, ios, iom, rd%consumed)
       if (ios == iostat_end) return
       if (ios /= 0) then
-        call set_error(st, DS_ERR_IO, "mesh file '" // rd%path // "', line " // &
-          itoa(rd%lineno + 1) // ': read error (' // trim(iom) // '); expected a text file')
+        call read_failure(rd%path, rd%lineno + 1, ios, iom, st)
         return
       end if
       rd%lineno = rd%lineno + 1

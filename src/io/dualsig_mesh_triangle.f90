@@ -33,6 +33,7 @@ module dualsig_mesh_triangle
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH
   use dualsig_mesh, only: mesh_t
   use dualsig_mesh_io, only: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, &
+                             mesh_reader_count_ok, &
                              mesh_reader_expect, mesh_reader_int, mesh_reader_real, mesh_reader_fail, &
                              mesh_quote, mesh_check_file_geometry, mesh_finish_topology, mesh_drop_unused_nodes, &
                              mesh_mark_boundary, mesh_note_len
@@ -205,6 +206,7 @@ contains
       call mesh_reader_fail(rd, 'dimension ' // itoa(dim) // ' (expected 2, a plane mesh)', st)
       return
     end if
+    if (.not. mesh_reader_count_ok(rd, n, 'the number of points', st)) return
   end subroutine read_node_header
 
   !> The n node lines after the header of the current .node or .poly file (the header is
@@ -278,6 +280,7 @@ contains
         'and >= 0 attributes)', st)
       return
     end if
+    if (.not. mesh_reader_count_ok(rd, nt, 'the number of triangles', st)) return
     layout = '<id> <n1> <n2> <n3>'
     if (nattr > 0) layout = layout // ' <attr> x ' // itoa(nattr)
     allocate (mesh%tri(3, nt), tri_line(nt), tri_id(nt), stat=istat)
@@ -339,6 +342,7 @@ contains
         ' (expected a count >= 0 and <nbmark> 0 or 1)', st)
       return
     end if
+    if (.not. mesh_reader_count_ok(rd, n, 'the number of ' // kind // 's', st)) return
     layout = '<id> <a> <b>'
     if (nbmark > 0) layout = layout // ' <marker>'
     deallocate (cand, cand_marker, cand_line)

@@ -26,7 +26,7 @@ module dualsig_sparse_direct
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: iso_c_binding, only: c_ptr, c_null_ptr, c_associated, c_int, c_long, c_double, c_loc
   use dualsig_kinds, only: dp, i8
-  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
+  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC, DS_ERR_MEMORY
   use dualsig_sparse, only: csr_t
   use dualsig_strings, only: itoa
   implicit none
@@ -432,7 +432,8 @@ contains
     case (SHIM_ERR_INPUT)
       call set_error(st, DS_ERR_INPUT, 'cholesky: invalid matrix pattern or argument')
     case (SHIM_ERR_NOMEM)
-      call set_error(st, DS_ERR_NUMERIC, 'cholesky: out of memory')
+      call set_error(st, DS_ERR_MEMORY, 'cholesky: out of memory in CHOLMOD (the ordering, factor or solve of ' // &
+                     'a matrix of order ' // itoa(n) // '; expected fewer levels or more memory)')
     case (SHIM_ERR_TOO_LARGE)
       call set_error(st, DS_ERR_NUMERIC, 'cholesky: problem too large for 32-bit indices')
     case (SHIM_ERR_NOT_FACTORED)

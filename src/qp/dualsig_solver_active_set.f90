@@ -38,7 +38,7 @@ module dualsig_solver_active_set
                                    cholesky_free, ORDERING_AMD
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
   use dualsig_qp_types, only: BOUND_LOWER, BOUND_FIXED, kkt_residual
-  use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_LAPACK
+  use dualsig_status, only: status_t, set_warning, set_error, set_alloc_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_LAPACK
   use dualsig_strings, only: itoa
   implicit none
   private
@@ -145,7 +145,7 @@ contains
     type(active_set_run_t) :: run
     logical, allocatable :: fixed(:), fixed_new(:)
     real(dp), allocatable :: g(:), rhs(:), xb(:)
-    integer :: it
+    integer :: it, istat
     logical :: cycled
 
     if (present(ws)) then
@@ -153,7 +153,12 @@ contains
     else
       w => local
     end if
-    allocate (fixed(a%n), fixed_new(a%n), g(a%n), rhs(a%n), xb(a%n))
+    allocate (fixed(a%n), fixed_new(a%n), g(a%n), rhs(a%n), xb(a%n), stat=istat)
+    if (istat /= 0) then
+      call set_alloc_error(st, int(a%n, i8) * (3 * storage_size(1.0_dp) + 2 * storage_size(.true.)) / 8, &
+                           'the work vectors of the active-set method')
+      return
+    end if
     if (any(x /= 0.0_dp)) then
       ! warm start (e.g. the interpolated coarser solution): its contact set is the first
       ! guess; the residual A x - F of an interpolated field is O(1) at the new nodes and

@@ -20,14 +20,14 @@
 !> dense QP; the active set of the dense QP is kept as the next solve's first guess, so
 !> a sequence of right-hand sides (augmented Lagrangian) reuses factor, S and active set.
 module dualsig_solver_boundary_schur
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_free, cholesky_order, &
                                    cholesky_permutation, cholesky_trailing_block, cholesky_solve_triangular, &
-                                   ORDERING_AMD, ORDERING_GIVEN, ORDERING_GIVEN_EXACT
+                                   ORDERING_AMD, ORDERING_GIVEN, ORDERING_GIVEN_EXACT, ORDERING_NATURAL
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, kkt_residual
   use dualsig_solver_dense_qp, only: dense_qp_settings_t, dense_qp_result_t, dense_bound_qp
-  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC
+  use dualsig_status, only: status_t, set_error, set_alloc_error, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
   implicit none
   private
@@ -93,6 +93,14 @@ contains
                        ' entries, the matrix has order ' // itoa(m%n))
         return
       end if
+    else if (settings%ordering == ORDERING_NATURAL) then
+      ! no fill-reducing order: the unknowns as numbered (CHOLMOD computes none for natural)
+      allocate (base(m%n), stat=i)
+      if (i /= 0) then
+        call set_alloc_error(st, 4_i8 * m%n, 'the natural ordering (boundary_schur_factor)')
+        return
+      end if
+      base = [(i, i = 1, m%n)]
     else
       call cholesky_order(m, settings%ordering, base, st)
       if (.not. is_ok(st)) return
