@@ -13,7 +13,10 @@
 !> (element-local LAPACK solves) and the augmented-Lagrangian variant (CHOLMOD), iterations,
 !> seconds, the relative divergence defect of the solver's field and of the returned
 !> (equilibrated) field, and ||grad u - lambda^h||.  The large P2 rows report the solver's
-!> defect in the residual column.
+!> defect in the residual column.  The large section also prints a cold line per level
+!> (cold_schur or cold_aset: a zero start on that level's mesh given as one level, method
+!> 'auto', against the same baseline); `bin/dualsig_bench cold [level]` runs only cold
+!> 'schur' and 'active_set' solves of both scenes at one level (10 by default).
 !> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv,
 !> out/bench_dual_p2.csv.
 program dualsig_bench
@@ -399,6 +402,7 @@ contains
       return
     end if
     label = 'cold_' // trim(rc%primal_method)
+    if (rc%primal_method == 'active_set') label = 'cold_aset'       ! fits the solver column
     write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, mesh_level%nnode, trim(label), rc%primal_iters, &
       rc%primal_factorisations, rc%primal_bordered, rc%primal_seconds, tbase, rc%primal_seconds / tbase, rc%err_energy, &
       rc%kkt_residual, peak_memory_mb()

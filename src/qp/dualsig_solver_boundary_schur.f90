@@ -98,9 +98,8 @@ contains
     type(boundary_schur_t), intent(inout) :: bs     !! the factorisation (freed first)
     type(status_t), intent(out) :: st
     integer, allocatable :: base(:), cperm(:)
-    integer :: nt, i
+    integer :: nt
     type(csr_t) :: mr
-    external :: dsyrk
 
     call boundary_schur_free(bs)
     if (size(kind) /= m%n .or. any(kind /= BOUND_FREE .and. kind /= BOUND_LOWER .and. kind /= BOUND_FIXED)) then
@@ -149,12 +148,8 @@ contains
     allocate (bs%ltt(nt, nt), bs%s(nt, nt), bs%active(nt))
     call cholesky_trailing_block(bs%chol, nt, bs%ltt, st)
     if (.not. is_ok(st)) return
-    if (nt > 0) then
-      call dsyrk('L', 'N', nt, nt, 1.0_dp, bs%ltt, nt, 0.0_dp, bs%s, nt)
-      do i = 1, nt
-        bs%s(i, i + 1:nt) = bs%s(i + 1:nt, i)
-      end do
-    end if
+    if (nt > 0) call lower_times_transpose(bs%ltt, bs%s, st)
+    if (.not. is_ok(st)) return
     bs%have_active = .false.
   end subroutine boundary_schur_factor
 
@@ -256,6 +251,28 @@ contains
     res%nnz_factor = bs%chol%nnz_factor
     call boundary_schur_free(bs)
   end subroutine boundary_schur_qp_solve
+
+  !> s = l l^T (both triangles) for a lower triangular l, in nt^3/3 flops (dsyrk would
+  !> take nt^3): with J the reversal, u = J l J is upper triangular and l l^T = J (u u^T) J,
+  !> formed in place by LAPACK's dlauum.
+  subroutine lower_times_transpose(l, s, st)
+    real(dp), intent(in) :: l(:,:)
+    real(dp), intent(out) :: s(:,:)
+    type(status_t), intent(inout) :: st
+    integer :: nt, i, info
+    external :: dlauum
+    nt = size(l, 1)
+    s = l(nt:1:-1, nt:1:-1)
+    call dlauum('U', nt, s, nt, info)
+    if (info /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'boundary_schur_factor: dlauum failed (info = ' // itoa(info) // ')')
+      return
+    end if
+    do i = 1, nt
+      s(i + 1:nt, i) = s(i, i + 1:nt)
+    end do
+    s = s(nt:1:-1, nt:1:-1)
+  end subroutine lower_times_transpose
 
   !> mr = M(held): the matrix m with identity rows and columns for the held unknowns.
   subroutine held_matrix(m, held, mr)
