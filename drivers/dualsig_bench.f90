@@ -13,7 +13,10 @@
 !> (element-local LAPACK solves) and the augmented-Lagrangian variant (CHOLMOD), iterations,
 !> seconds, the relative divergence defect of the solver's field and of the returned
 !> (equilibrated) field, and ||grad u - lambda^h||.  The large P2 rows report the solver's
-!> defect in the residual column.
+!> defect in the residual column.  The large section also prints a cold line per level
+!> (cold_schur or cold_aset: a zero start on that level's mesh given as one level, method
+!> 'auto', against the same baseline); `bin/dualsig_bench cold [level]` runs only cold
+!> 'schur' and 'active_set' solves of both scenes at one level (10 by default).
 !> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv,
 !> out/bench_dual_p2.csv.
 program dualsig_bench
@@ -84,6 +87,13 @@ program dualsig_bench
 
   call execute_command_line('mkdir -p out')
   call get_sections()
+  ! cold: only on request (`bin/dualsig_bench cold [level]`); the large section has a cold line per level
+  if (nsections > 0) then
+    if (sections(1) == 'cold') then
+      call bench_cold()
+      stop
+    end if
+  end if
   ! large_p2_full: the former name of large_p2 (when the P2 dual on the 10^6 mesh was optional)
   if (run_section('large') .or. run_section('large_p2') .or. run_section('large_p2_full')) &
     call bench_large('p2_contact', max_level_large, max_level_large_dual_p2)
@@ -140,7 +150,8 @@ program dualsig_bench
 contains
 
   !> Sections to run: the command-line arguments (primal, dual_p1, dual_p2, large, or
-  !> large_p1 / large_p2 for one scene of `large`), all without arguments.
+  !> large_p1 / large_p2 for one scene of `large`), all without arguments; `cold [level]`
+  !> alone runs bench_cold.
   subroutine get_sections()
     integer :: k
     nsections = min(command_argument_count(), size(sections))
@@ -280,6 +291,9 @@ contains
         tbm, tb, tp / tb, nnz_nd, fl_amd, fl_nd, fl_metis
       write (*, '(a,3es11.3,a,f6.3)') '       factor flops (CHOLMOD): amd, baseline ordering, metis =', fl_amd, fl_nd, &
         fl_metis, ';  baseline / amd =', fl_nd / fl_amd
+      ! a cold solve of the same mesh given at its final size (one level, zero start, the
+      ! default primal method) against the same baseline
+      call cold_line(pb, mesh, 'auto', level, tbn, lcsv)
       flush (6)
       if (level >= first_level_fit) then
         nfit = nfit + 1
@@ -358,6 +372,113 @@ contains
     write (*, '(a)') 'dualsig_bench: table written to out/bench_large_' // scene_name // '.csv'
     if (allocated(u)) deallocate (u)
   end subroutine bench_large
+
+  !> A cold solve (zero start, the mesh as one level, no dual) of the primal QP on `mesh`
+  !> with `method` through the pipeline, printed as a 'cold' line with its ratio to the
+  !> baseline `tbase` (one ordering + analyse + factorise + solve); also to csv unit `lcsv`.
+  subroutine cold_line(pb, mesh_level, method, level, tbase, lcsv)
+    type(analysis_problem_t), intent(in) :: pb
+    type(mesh_t), intent(in) :: mesh_level
+    character(len=*), intent(in) :: method
+    integer, intent(in) :: level, lcsv
+    real(dp), intent(in) :: tbase
+    type(analysis_problem_t) :: pc
+    type(analysis_settings_t) :: set
+    type(analysis_t) :: an_cold
+    type(level_result_t) :: rc
+    type(status_t) :: stc
+    character(len=16) :: label
+    pc = pb
+    pc%mesh = mesh_level
+    set%levels = 1
+    set%method = method
+    set%max_iter = 100
+    set%ordering = ORDERING_GEOMETRIC
+    set%dual = .false.
+    call analysis_start(an_cold, pc, set, stc)
+    if (is_ok(stc)) call analysis_next_level(an_cold, rc, stc)
+    if (.not. is_ok(stc)) then
+      write (*, '(a,i0,a)') 'dualsig_bench: cold solve at level ', level, ': ' // trim(stc%msg)
+      return
+    end if
+    label = 'cold_' // trim(rc%primal_method)
+    if (rc%primal_method == 'active_set') label = 'cold_aset'       ! fits the solver column
+    write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, mesh_level%nnode, trim(label), rc%primal_iters, &
+      rc%primal_factorisations, rc%primal_bordered, rc%primal_seconds, tbase, rc%primal_seconds / tbase, rc%err_energy, &
+      rc%kkt_residual, peak_memory_mb()
+    write (lcsv, '(a,",",i0,",",i0,",",a,",",es12.4,",",i0,",",i0,",",i0,3(",",es12.4),",",es12.4,",",f10.1,' // &
+      '",0,0,0,0,0,0,0,0,0")') trim(pb_scene_name()), level, mesh_level%nnode, trim(label), rc%primal_seconds, &
+      rc%primal_iters, rc%primal_factorisations, rc%primal_bordered, tbase, rc%primal_seconds / tbase, rc%err_energy, &
+      rc%kkt_residual, peak_memory_mb()
+  end subroutine cold_line
+
+  !> The name of the scene being benchmarked.
+  function pb_scene_name() result(name)
+    character(len=:), allocatable :: name
+    name = trim(scene%name)
+  end function pb_scene_name
+
+  !> Cold solves at one level (`bin/dualsig_bench cold [level]`, level 10 by default: 1.05e6
+  !> unknowns) of p2_contact and p1_contact: the baseline (geometric nested dissection +
+  !> analyse + factorise + solve of the matrix with only the Dirichlet rows), then cold
+  !> solves with 'schur' and 'active_set' through the pipeline, all in this run.
+  subroutine bench_cold()
+    integer :: lvl, s2, i, p, ord, ios, lcsv
+    character(len=16) :: arg
+    type(analysis_problem_t) :: pb
+    type(csr_t) :: ar
+    type(cholesky_t) :: chol
+    real(dp), allocatable :: xb(:)
+    integer, allocatable :: perm(:)
+    real(dp) :: t0, tbn
+    lvl = max_level_large
+    if (command_argument_count() >= 2) then
+      call get_command_argument(2, arg)
+      read (arg, *, iostat=ios) lvl
+      if (ios /= 0) lvl = max_level_large
+    end if
+    open (newunit=lcsv, file='out/bench_cold.csv', status='replace')
+    write (lcsv, '(a)') 'scene,level,n,solver,seconds,iterations,factorisations,bordered,baseline_s,ratio,' // &
+      'error,residual,peak_mb,unused1,unused2,unused3,unused4,unused5,unused6,unused7,unused8,unused9'
+    write (*, '(/,a)') 'dualsig_bench: cold solves (zero start, one level) against one ordering + analyse + ' // &
+      'factorise + solve (geometric nested dissection)'
+    write (*, '(a)') '  lvl         N     solver   iters fact bord   seconds  baseline   ratio       error    residual   peak MB'
+    do s2 = 1, size(scenes)
+      call scene_lookup(scenes(s2), scene, st)
+      call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2**lvl, 2**lvl, 'right', st)
+      if (allocated(pb%f)) deallocate (pb%f, pb%u_exact, pb%grad_exact)
+      allocate (pb%f, source=scene%f)
+      allocate (pb%u_exact, source=scene%u)
+      allocate (pb%grad_exact, source=scene%grad_u)
+      pb%kind = scene%problem
+      pb%gamma_u = scene%gamma_u_markers
+      pb%gamma_a = scene%gamma_a_markers
+      pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
+                              sys%kind, sys%bnd, st)
+      ar = sys%a
+      do i = 1, ar%n
+        do p = ar%rowptr(i), ar%rowptr(i + 1) - 1
+          if (sys%kind(i) == BOUND_FIXED .or. sys%kind(ar%col(p)) == BOUND_FIXED) ar%val(p) = 0.0_dp
+        end do
+        if (sys%kind(i) == BOUND_FIXED) ar%val(ar%diag(i)) = 1.0_dp
+      end do
+      allocate (xb(ar%n))
+      t0 = wall_seconds()
+      call geometric_ordering(mesh%xy, ar, ord, perm, st)
+      call cholesky_factor(ar, chol, st, ord, perm)
+      call cholesky_solve(chol, sys%load, xb, st)
+      tbn = wall_seconds() - t0
+      call cholesky_free(chol)
+      deallocate (xb)
+      call cold_line(pb, mesh, 'schur', lvl, tbn, lcsv)
+      call cold_line(pb, mesh, 'active_set', lvl, tbn, lcsv)
+      flush (6)
+    end do
+    close (lcsv)
+    write (*, '(a)') 'dualsig_bench: table written to out/bench_cold.csv'
+  end subroutine bench_cold
 
   !> Least-squares slope of y against x.
   pure real(dp) function slope(x, y)

@@ -28,9 +28,11 @@ module dualsig_analysis
   use dualsig_sparse_direct, only: ORDERING_AMD
   use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
-  use dualsig_qp_types, only: BOUND_FIXED
+  use dualsig_qp_types, only: BOUND_FIXED, BOUND_LOWER
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
+  use dualsig_solver_boundary_schur, only: boundary_schur_settings_t, boundary_schur_result_t, boundary_schur_qp_solve, &
+                                           boundary_schur_max_default
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
   use dualsig_dual_p2_field, only: dual_p2_field_t
@@ -87,7 +89,12 @@ module dualsig_analysis
   type :: analysis_settings_t
     integer :: levels = 1                         !! levels of uniform refinement, the coarse mesh is level 1
     logical :: nested = .true.                    !! start each level from the prolongated solution
-    character(len=16) :: method = 'active_set'    !! primal solver: 'active_set' or 'psor'
+    !> primal solver: 'auto' (the default: 'schur' when at most max_schur unknowns are
+    !> bounded, else 'active_set'), 'schur' (one factorisation with the bounded unknowns
+    !> eliminated last, the exact dense QP on their Schur complement), 'active_set'
+    !> (primal-dual active set, bordered changes) or 'psor'
+    character(len=16) :: method = 'auto'
+    integer :: max_schur = boundary_schur_max_default  !! 'auto': most bounded unknowns for 'schur'
     real(dp) :: omega = 1.0_dp                    !! psor: relaxation
     logical :: omega_auto = .false.               !! psor: omega from a Lanczos estimate per level
     real(dp) :: tol = 1.0e-10_dp                  !! psor: relative KKT tolerance
@@ -120,8 +127,9 @@ module dualsig_analysis
     integer :: ndof = 0                     !! unknowns not fixed by Gamma_u
     real(dp) :: h = 0.0_dp                  !! longest side
     ! primal
-    integer :: primal_iters = 0
-    integer :: primal_factorisations = 0    !! active set: CHOLMOD factorisations
+    character(len=16) :: primal_method = '' !! the primal solver used: 'schur', 'active_set' or 'psor'
+    integer :: primal_iters = 0             !! sweeps, active-set iterations or dense pivoting steps ('schur')
+    integer :: primal_factorisations = 0    !! active set, schur: CHOLMOD factorisations
     integer :: primal_bordered = 0          !! active set: iterations done by bordering on the kept factor
     real(dp) :: primal_seconds = 0.0_dp     !! wall time of the solve
     real(dp) :: kkt_residual = 0.0_dp
@@ -194,9 +202,9 @@ contains
       call set_error(st, DS_ERR_INPUT, 'analysis: levels = ' // itoa(settings%levels) // ' (expected >= 1)')
       return
     end if
-    if (settings%method /= 'active_set' .and. settings%method /= 'psor') then
+    if (.not. any(settings%method == [character(len=16) :: 'auto', 'schur', 'active_set', 'psor'])) then
       call set_error(st, DS_ERR_INPUT, "analysis: primal method '" // trim(settings%method) // &
-        "' (expected 'active_set' or 'psor')")
+        "' (expected 'auto', 'schur', 'active_set' or 'psor')")
       return
     end if
     method = trim(settings%dual_method)
@@ -345,9 +353,13 @@ contains
     end if
   end subroutine check_finite_results
 
-  !> The primal QP (Section 2): the primal-dual active-set method (one CHOLMOD factor,
-  !> the ordering chosen by select_ordering) or projected SOR (omega given or from a
-  !> Lanczos estimate), from an%u; the result replaces an%u.
+  !> The primal QP (Section 2) from an%u; the result replaces an%u.  Methods: 'schur' (one
+  !> CHOLMOD factorisation with the bounded unknowns eliminated last, the exact dense QP on
+  !> their Schur complement, one back substitution: dualsig_solver_boundary_schur), the
+  !> primal-dual active-set method (one CHOLMOD factor, changes bordered), both with the
+  !> ordering chosen by select_ordering, or projected SOR (omega given or from a Lanczos
+  !> estimate).  'auto' is 'schur' when at most settings%max_schur unknowns are bounded
+  !> (the O(sqrt N) nodes of Gamma_a), else 'active_set'.
   subroutine solve_primal(an, sys, res, st)
     type(analysis_t), intent(inout) :: an
     type(primal_system_t), intent(in) :: sys
@@ -361,7 +373,11 @@ contains
     real(dp) :: lmin, lmax
     integer :: steps
     res%primal_seconds = wall_seconds()
-    if (an%settings%method == 'active_set') then
+    res%primal_method = primal_method_of(an%settings, sys%kind)
+    if (res%primal_method == 'schur') then
+      call solve_primal_schur(an, sys, res, st, st_solve)
+      if (.not. is_ok(st)) return
+    else if (res%primal_method == 'active_set') then
       aset%max_iter = an%settings%max_iter
       call select_ordering(an%settings%ordering, an%mesh%xy, sys%a, aset%ordering, aset%perm, st)
       if (.not. is_ok(st)) return
@@ -389,6 +405,37 @@ contains
     res%primal_limit = is_warning(st_solve)
     call take_status(st_solve, res, st)
   end subroutine solve_primal
+
+  !> The primal method a level uses: settings%method, 'auto' resolved by the number of
+  !> bounded unknowns ('schur' up to settings%max_schur, 'active_set' above).
+  function primal_method_of(settings, kind) result(method)
+    type(analysis_settings_t), intent(in) :: settings
+    integer, intent(in) :: kind(:)
+    character(len=16) :: method
+    method = settings%method
+    if (method == 'auto') method = merge('schur     ', 'active_set', count(kind == BOUND_LOWER) <= settings%max_schur)
+  end function primal_method_of
+
+  !> The primal QP by the boundary Schur complement: one factorisation whatever the start;
+  !> the first active set of the dense QP from the unconstrained minimiser on a cold (zero)
+  !> start, from the start's contact set otherwise.  st: errors of the ordering;
+  !> st_solve: the solver's status.
+  subroutine solve_primal_schur(an, sys, res, st, st_solve)
+    type(analysis_t), intent(inout) :: an
+    type(primal_system_t), intent(in) :: sys
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st, st_solve
+    type(boundary_schur_settings_t) :: bset
+    type(boundary_schur_result_t) :: bres
+    call select_ordering(an%settings%ordering, an%mesh%xy, sys%a, bset%ordering, bset%perm, st)
+    if (.not. is_ok(st)) return
+    bset%qp%max_iter = min(an%settings%max_iter, bset%qp%max_iter)
+    bset%guess_unconstrained = all(an%u == 0.0_dp)
+    call boundary_schur_qp_solve(sys%a, sys%load, sys%kind, sys%bnd, an%u, bset, bres, st_solve)
+    res%primal_iters = bres%qp_iterations
+    res%primal_factorisations = bres%factorisations
+    res%kkt_residual = bres%kkt_residual
+  end subroutine solve_primal_schur
 
   !> An error of a solver becomes the level's error; a warning is recorded in res.
   subroutine take_status(st_step, res, st)

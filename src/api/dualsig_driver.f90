@@ -23,6 +23,7 @@ module dualsig_driver
   use dualsig_quadrature, only: tri_rule
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
   use dualsig_dual_p2_field, only: dual_p2_lambda
+  use dualsig_solver_boundary_schur, only: boundary_schur_max_default
   use dualsig_assembly_dual_hdiv, only: hdiv_point_value
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_estimate_errors, only: exact_energy
@@ -289,7 +290,7 @@ contains
       per_tri = p1_dual_bytes_per_tri
     else if (dual) then
       per_tri = p2_dual_bytes_per_tri
-    else if (method == 'active_set') then
+    else if (method /= 'psor') then
       per_tri = primal_factor_bytes_per_tri
     else
       per_tri = primal_bytes_per_tri
@@ -772,6 +773,12 @@ contains
       if (cfg%method == 'active_set') then
         parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (primal-dual active set, CHOLMOD, ' // &
           'ordering ' // trim(cfg%dual_ordering) // ')'
+      else if (cfg%method == 'schur' .or. cfg%method == 'auto') then
+        parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (' // trim(cfg%method) // &
+          ': one CHOLMOD factorisation, exact QP on the Schur complement of the bounded unknowns'
+        if (cfg%method == 'auto') parts = parts // ' when at most ' // itoa(boundary_schur_max_default) // &
+          ', else primal-dual active set'
+        parts = parts // '; ordering ' // trim(cfg%dual_ordering) // ')'
       else
         parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (projected SOR'
         if (cfg%omega_auto) parts = parts // ', omega from a Lanczos estimate'
