@@ -35,6 +35,8 @@ module dualsig_io_config
     'method omega omega_auto tol max_iter check_every nested'
   character(len=*), parameter :: dual_items = &
     'enabled method rho tol tol_h2 max_iter ordering inner particular space'
+  character(len=*), parameter :: adapt_items = &
+    'enabled theta tol max_ndof max_seconds'
 
   type :: run_config_t
     character(len=:), allocatable :: source_file   !! the namelist file
@@ -80,6 +82,12 @@ module dualsig_io_config
     character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
     character(len=16) :: dual_particular = 'polynomial' !! P2 lambda^f: 'polynomial' or 'stream' (the paper's)
     character(len=16) :: dual_space = 'hdiv'      !! P1: 'hdiv' (RT1, tight bounds) or 'paper' (Section 3)
+    ! &adapt: solve -> estimate -> mark (Doerfler) -> refine (newest-vertex bisection)
+    logical :: adapt_enabled = .false.
+    real(dp) :: adapt_theta = 0.5_dp               !! Doerfler parameter, 0 < theta <= 1
+    real(dp) :: adapt_tol = 0.0_dp                 !! target of sqrt(est)/sqrt(energy_lo); 0 = none
+    integer :: adapt_max_ndof = 0                  !! 0 = no limit
+    real(dp) :: adapt_max_seconds = 0.0_dp         !! 0 = no limit
   end type run_config_t
 
   type :: group_t
@@ -99,7 +107,7 @@ contains
     character(len=max_line_len), allocatable :: lines(:)
     type(group_t), allocatable :: groups(:)
     integer :: g, r, nrun
-    logical :: seen_mesh, seen_solver, seen_dual
+    logical :: seen_mesh, seen_solver, seen_dual, seen_adapt
 
     allocate (runs(0))
     call read_lines(path, lines, st)
@@ -126,7 +134,21 @@ contains
         seen_mesh = .false.
         seen_solver = .false.
         seen_dual = .false.
+        seen_adapt = .false.
         call apply_group(path, groups(g), run_items, runs(r), st)
+      case ('adapt')
+        if (r == 0) then
+          call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
+            ': group &adapt before the first &run group')
+          return
+        end if
+        if (seen_adapt) then
+          call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
+            ': second &adapt group in the run of line ' // itoa(runs(r)%line))
+          return
+        end if
+        seen_adapt = .true.
+        call apply_group(path, groups(g), adapt_items, runs(r), st)
       case ('mesh', 'solver', 'dual')
         if (r == 0) then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
@@ -152,7 +174,8 @@ contains
       case default
         call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
           ': unknown namelist group &' // trim(groups(g)%name) // &
-          did_you_mean(groups(g)%name, 'run mesh solver dual', '&') // '; expected &run, &mesh, &solver or &dual')
+          did_you_mean(groups(g)%name, 'run mesh solver dual adapt', '&') // &
+          '; expected &run, &mesh, &solver, &dual or &adapt')
         return
       end select
       if (st%code /= 0) return
@@ -190,6 +213,9 @@ contains
       rtoa(cfg%dual_tol_h2) // ', max_iter = ' // itoa(cfg%dual_max_iter) // ', ordering = ''' // &
       trim(cfg%dual_ordering) // ''', inner = ''' // trim(cfg%dual_inner) // ''', particular = ''' // &
       trim(cfg%dual_particular) // ''', space = ''' // trim(cfg%dual_space) // ''' /'
+    if (cfg%adapt_enabled) lines = [character(len=300) :: lines, '&adapt enabled = .true., theta = ' // &
+      rtoa(cfg%adapt_theta) // ', tol = ' // rtoa(cfg%adapt_tol) // ', max_ndof = ' // itoa(cfg%adapt_max_ndof) // &
+      ', max_seconds = ' // rtoa(cfg%adapt_max_seconds) // ' /']
     if (any(cfg%gamma_u_names /= '') .or. any(cfg%gamma_a_names /= '')) then
       ! the names continue the &run group on a line of their own
       lines(1) = lines(1)(1:len_trim(lines(1)) - 2)
@@ -272,7 +298,7 @@ contains
         if (cur(k:k) == '!') cycle
         if (cur(k:k) /= '&') then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // &
-            ': expected the start of a namelist group (&run, &mesh, &solver or &dual), found "' // &
+            ': expected the start of a namelist group (&run, &mesh, &solver, &dual or &adapt), found "' // &
             trim(cur(k:min(len_trim(cur), k + 30))) // '"')
           allocate (groups(0))
           return
@@ -502,6 +528,10 @@ contains
       call read_dual_group(assign, cfg, ios, msg)
       return
     end if
+    if (gname == 'adapt') then
+      call read_adapt_group(assign, cfg, ios, msg)
+      return
+    end if
 
     rec(1) = '&' // gname
     do k = 1, size(assign)
@@ -675,6 +705,71 @@ contains
     cfg%dual_space = space(1:len(cfg%dual_space))
   end subroutine read_dual_group
 
+  !> Read the assignments of the &adapt group into cfg.
+  subroutine read_adapt_group(assign, cfg, ios, msg)
+    character(len=*), intent(in) :: assign(:)
+    type(run_config_t), intent(inout) :: cfg
+    integer, intent(out) :: ios
+    character(len=*), intent(out) :: msg
+    character(len=max_line_len + 16) :: rec(size(assign) + 2)
+    logical :: enabled
+    real(dp) :: theta, tol, max_seconds
+    integer :: max_ndof, k
+    namelist /adapt/ enabled, theta, tol, max_ndof, max_seconds
+    logical :: saved_halting(size(ieee_usual))
+    rec(1) = '&adapt'
+    do k = 1, size(assign)
+      rec(k + 1) = assign(k)
+    end do
+    rec(size(rec)) = '/'
+    msg = ''
+    enabled = cfg%adapt_enabled
+    theta = cfg%adapt_theta
+    tol = cfg%adapt_tol
+    max_ndof = cfg%adapt_max_ndof
+    max_seconds = cfg%adapt_max_seconds
+    call fp_traps_off(saved_halting)
+    read (rec, nml=adapt, iostat=ios, iomsg=msg)
+    call ieee_set_halting_mode(ieee_usual, saved_halting)
+    if (ios /= 0) return
+    if (.not. all(ieee_is_finite([theta, tol, max_seconds]))) then
+      call bad_value('a finite real number', ios, msg)
+      return
+    end if
+    cfg%adapt_enabled = enabled
+    cfg%adapt_theta = theta
+    cfg%adapt_tol = tol
+    cfg%adapt_max_ndof = max_ndof
+    cfg%adapt_max_seconds = max_seconds
+  end subroutine read_adapt_group
+
+  !> Range checks of the &adapt group (after validate's), each naming the variable.
+  subroutine validate_adapt(cfg, where, st)
+    type(run_config_t), intent(in) :: cfg
+    character(len=*), intent(in) :: where
+    type(status_t), intent(inout) :: st
+    if (.not. (cfg%adapt_theta > 0.0_dp .and. cfg%adapt_theta <= 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt theta = ' // rtoa(cfg%adapt_theta) // &
+        '; expected 0 < theta <= 1 (Doerfler: the marked indicators sum to at least theta est)')
+    else if (.not. (cfg%adapt_tol >= 0.0_dp .and. cfg%adapt_tol < 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt tol = ' // rtoa(cfg%adapt_tol) // &
+        '; expected 0 <= tol < 1 (the certified relative error to reach; 0: none)')
+    else if (cfg%adapt_max_ndof < 0) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt max_ndof = ' // itoa(cfg%adapt_max_ndof) // &
+        '; expected >= 0 (0: no limit)')
+    else if (.not. cfg%adapt_max_seconds >= 0.0_dp) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt max_seconds = ' // rtoa(cfg%adapt_max_seconds) // &
+        '; expected >= 0 (0: no limit)')
+    else if (cfg%adapt_enabled .and. .not. cfg%dual_enabled) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt enabled = .true. needs &dual enabled = .true. ' // &
+        '(the element indicators of the bound est drive the marking)')
+    else if (cfg%adapt_enabled .and. cfg%adapt_tol == 0.0_dp .and. cfg%adapt_max_ndof == 0 .and. &
+             cfg%adapt_max_seconds == 0.0_dp) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt enabled = .true. without tol, max_ndof or max_seconds; ' // &
+        'expected at least one of them > 0 (when to stop)')
+    end if
+  end subroutine validate_adapt
+
   !> Range checks of a run configuration, each naming the variable and what is expected.
   subroutine validate(cfg, st)
     type(run_config_t), intent(in) :: cfg
@@ -755,6 +850,7 @@ contains
       call set_error(st, DS_ERR_INPUT, where // '&dual space = "' // trim(cfg%dual_space) // &
         '"; expected hdiv (Raviart-Thomas of order 1, the default) or paper (the continuous P1 fields of Section 3)')
     end if
+    if (st%code == 0) call validate_adapt(cfg, where, st)
   end subroutine validate
 
   ! ================================================================== small helpers
@@ -787,7 +883,7 @@ contains
     select case (trim(name))
     case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering', 'inner', 'particular')
       s = 'a quoted string'
-    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb')
+    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb', 'theta', 'max_seconds')
       s = 'a real number'
     case ('omega_auto', 'nested', 'enabled', 'vtk', 'latex')
       s = 'a logical, .true. or .false.'

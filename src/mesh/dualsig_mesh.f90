@@ -30,6 +30,10 @@ module dualsig_mesh
     integer, allocatable :: tri(:,:)            !! (3, ntri) vertices, counter-clockwise
     integer, allocatable :: bedge_nodes(:,:)    !! (2, nbedge) boundary edge, domain on the left
     integer, allocatable :: bedge_marker(:)     !! (nbedge) boundary marker (> 0)
+    !> (ntri) newest-vertex bisection (dualsig_mesh_adapt): bisections from the coarse
+    !> ancestor; allocated only on meshes made by it, whose local edge 1 of every triangle
+    !> (vertices 1, 2) is then its refinement edge.  Unallocated: no labelling yet.
+    integer, allocatable :: tri_gen(:)
     ! ---- derived by mesh_build_topology ----
     integer, allocatable :: edge_nodes(:,:)     !! (2, nedge) end nodes, edge_nodes(1,e) < edge_nodes(2,e)
     integer, allocatable :: edge_tri(:,:)       !! (2, nedge) adjacent triangles; edge_tri(2,e) = 0 on the boundary
