@@ -10,9 +10,9 @@ LMAX=${1:-9}
 mkdir -p out/wp
 # case: name scene gamma_u gamma_a mesh-group adapt-tol adapt-max-ndof
 cases=(
-  "lshape_dirichlet_corner|p2_lshape_corner|2, 3|1, 4, 5, 6|source = 'lshape', n = 1|1.0e-3|600000"
-  "lshape_transition|p2_lshape_load|4, 5, 6|1, 2, 3|source = 'lshape', n = 1|1.0e-3|600000"
-  "square_smooth|p2_contact|2, 3, 4|1|source = 'rectangle', nx = 2, ny = 2|1.0e-3|600000"
+  "lshape_dirichlet_corner|p2_lshape_corner|2, 3|1, 4, 5, 6|source = 'lshape', n = 1|1.0e-3|300000"
+  "lshape_transition|p2_lshape_load|4, 5, 6|1, 2, 3|source = 'lshape', n = 1|1.0e-3|300000"
+  "square_smooth|p2_contact|2, 3, 4|1|source = 'rectangle', nx = 2, ny = 2|1.0e-3|300000"
 )
 namelist() {  # name scene gu ga mesh levels [adapt tol ndof]
   cat <<NML
@@ -31,7 +31,7 @@ namelist() {  # name scene gu ga mesh levels [adapt tol ndof]
   enabled = .true., method = 'augmented'
 /
 NML
-  if [ $# -gt 6 ]; then printf '&adapt\n  enabled = .true., tol = %s, max_ndof = %s, max_seconds = 900\n/\n' "$7" "$8"; fi
+  if [ $# -gt 6 ]; then printf '&adapt\n  enabled = .true., tol = %s, max_ndof = %s, max_seconds = 300\n/\n' "$7" "$8"; fi
 }
 for c in "${cases[@]}"; do
   IFS='|' read -r name scene gu ga mesh tol ndof <<<"$c"
