@@ -229,12 +229,18 @@ bench-plots:
 # make plots   convergence and work-precision plots of the manufactured runs (bench/plots.gp):
 #              runs data/p2_square.nml and data/p1_square.nml when their CSV tables are missing,
 #              writes out/convergence.png and out/work_precision_runs.png and copies them to doc/
+#              and the adaptive plots (bench/adapt.gp): runs data/adapt_lshape.nml when its final
+#              mesh is missing, writes out/adapt_mesh.png and, after bench/adapt_work_precision.sh,
+#              out/adapt_work_precision.png; copies them to doc/
 PLOT_PNGS := out/convergence.png out/work_precision_runs.png
 plots: bench-deps
 	@$(MAKE) all
 	@for r in p2_square p1_square; do [ -f out/$$r.csv ] || ./$(DRIVER) data/$$r.nml || [ $$? -eq 3 ] || exit 1; done
+	@[ -f out/adapt_lshape_mesh.dat ] || ./$(DRIVER) data/adapt_lshape.nml || [ $$? -eq 3 ] || exit 1
 	@if command -v gnuplot >/dev/null; then gnuplot bench/plots.gp && cp $(PLOT_PNGS) doc/ && \
 	  echo "dualsig: plots written to $(PLOT_PNGS) and copied to doc/"; \
+	  gnuplot bench/adapt.gp && cp out/adapt_mesh.png doc/ && echo "dualsig: adaptive mesh plot out/adapt_mesh.png"; \
+	  if [ -f out/adapt_work_precision.png ]; then cp out/adapt_work_precision.png doc/; fi; \
 	else echo "dualsig: gnuplot not installed: no plots"; exit 1; fi
 
 # PETSc is optional: installed here when possible (python3-petsc4py: about 150 MB with MPI),

@@ -20,11 +20,13 @@ module dualsig_analysis
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_status, only: status_t, set_error, is_ok, is_warning, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
                             DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC
-  use dualsig_strings, only: itoa
+  use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
-  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter
+  use dualsig_kinds, only: geom_rel_tol
+  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_triangle_area
   use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
+  use dualsig_mesh_adapt, only: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler
   use dualsig_sparse_direct, only: ORDERING_AMD
   use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
@@ -52,6 +54,8 @@ module dualsig_analysis
   public :: analysis_start, analysis_next_level, analysis_free
   public :: load_degree, exact_degree, bound_degree_p1, bound_degree_p2, max_level_warnings
   public :: dual_spaces
+  public :: adapt_settings_t, analysis_next_step, analysis_adapt_stop, adapt_stop_text, certified_rel_error
+  public :: ADAPT_GOING, ADAPT_STOP_TOL, ADAPT_STOP_NDOF, ADAPT_STOP_SECONDS, ADAPT_STOP_STEPS, adapt_max_steps
 
   !> Degree of the quadrature of the load vectors (>= 5 as required; Radon's rule).
   integer, parameter :: load_degree = 5
@@ -70,6 +74,27 @@ module dualsig_analysis
   character(len=*), parameter :: dual_spaces = 'hdiv, paper'
   !> Warnings a level can carry (primal limit, dual limit, dual not admissible).
   integer, parameter :: max_level_warnings = 3
+
+  !> Why an adaptive loop stops (analysis_adapt_stop): not yet; the certified relative error
+  !> reached tol; max_ndof unknowns reached; the next step would end after max_seconds; the
+  !> largest number of steps (adapt_max_steps, the two digits of the .vtu names).
+  integer, parameter :: ADAPT_GOING = 0, ADAPT_STOP_TOL = 1, ADAPT_STOP_NDOF = 2, ADAPT_STOP_SECONDS = 3, &
+                        ADAPT_STOP_STEPS = 4
+  integer, parameter :: adapt_max_steps = 99
+  !> Triangles with an area below this times geom_rel_tol diameter^2 (the zero-area test of
+  !> mesh_build_topology) are not marked: their children could fail that test.
+  real(dp), parameter :: adapt_area_floor = 1.0e3_dp
+
+  !> The adaptive loop solve -> estimate -> mark (Doerfler) -> refine (newest-vertex
+  !> bisection): analysis_next_step, analysis_adapt_stop.
+  type :: adapt_settings_t
+    logical :: enabled = .false.
+    real(dp) :: theta = 0.5_dp          !! Doerfler parameter: mark sum_M eta_T^2 >= theta est
+    real(dp) :: tol = 0.0_dp            !! target of sqrt(est / energy_lo) (certified steps only); 0 = none
+    integer :: max_ndof = 0             !! stop at a step with at least this many unknowns; 0 = no limit
+    real(dp) :: max_seconds = 0.0_dp    !! stop before a step predicted to end later; 0 = no limit
+    integer :: max_steps = adapt_max_steps !! at most this many steps (<= adapt_max_steps)
+  end type adapt_settings_t
 
   !> What is solved: the problem, its coarse mesh, boundary parts and data.
   type :: analysis_problem_t
@@ -118,6 +143,7 @@ module dualsig_analysis
     !> Largest relative divergence defect of the P2 dual field for which est is certified.
     real(dp) :: admissible_defect = 1.0e-10_dp
     logical :: keep_fields = .false.              !! return the dual field in the level result
+    type(adapt_settings_t) :: adapt               !! the adaptive loop (analysis_next_step)
   end type analysis_settings_t
 
   !> What one level produced.  Columns not computed keep their defaults (has_* false).
@@ -162,6 +188,14 @@ module dualsig_analysis
     real(dp), allocatable :: q(:)           !! keep_fields, P1 'paper': q_h at the nodes, (2, nnode) flattened
     real(dp), allocatable :: q_hdiv(:)      !! keep_fields, P1 'hdiv': the RT1 unknowns (dualsig_assembly_dual_hdiv)
     type(dual_p2_field_t) :: lambda         !! keep_fields, P2: lambda_h
+    ! timings of the pipeline (all levels) and of the adaptive loop (analysis_next_step)
+    real(dp) :: estimate_seconds = 0.0_dp   !! wall time of the dual part: load data, dual solve, bounds
+    real(dp) :: refine_seconds = 0.0_dp     !! wall time of marking, refining and transferring u
+    real(dp) :: step_seconds = 0.0_dp       !! wall time of the whole level / step
+    real(dp) :: elapsed_seconds = 0.0_dp    !! wall time since analysis_start
+    integer :: nmarked = 0                  !! adaptive: triangles marked on the previous step
+    integer :: nheld = 0                    !! adaptive: triangles not marked: at the area floor (adapt_area_floor)
+    integer :: max_depth = 0                !! adaptive: most bisections from a coarse triangle
     ! warnings of this level (codes DS_WARN_*, messages without the level)
     integer :: nwarnings = 0
     type(status_t) :: warnings(max_level_warnings)
@@ -176,6 +210,10 @@ module dualsig_analysis
     real(dp), allocatable :: u(:)           !! u_h of the current level
     real(dp), allocatable :: u_start(:)     !! start of level 1 (optional)
     character(len=16) :: dual_method = ''   !! resolved dual method
+    real(dp), allocatable :: est_elem(:)    !! the element indicators of the current level (marking)
+    real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
+    real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
+    integer :: last_ndof = 0, prev_ndof = 0 !! unknowns of the last two levels / steps
     type(tri_rule_t) :: load_rule, exact_rule, bound_rule_p1, bound_rule_p2
   end type analysis_t
 
@@ -197,6 +235,22 @@ contains
     if (.not. allocated(problem%f)) then
       call set_error(st, DS_ERR_INPUT, 'analysis: the problem has no load f')
       return
+    end if
+    if (settings%adapt%enabled) then
+      if (.not. (settings%adapt%theta > 0.0_dp .and. settings%adapt%theta <= 1.0_dp)) then
+        call set_error(st, DS_ERR_INPUT, 'analysis: adapt theta out of range (expected 0 < theta <= 1)')
+        return
+      end if
+      if (.not. settings%dual .or. .not. settings%bounds) then
+        call set_error(st, DS_ERR_INPUT, 'analysis: adaptive refinement needs the dual analysis with its ' // &
+          'bounds (the element indicators of est)')
+        return
+      end if
+      if (settings%adapt%max_steps < 1 .or. settings%adapt%max_steps > adapt_max_steps) then
+        call set_error(st, DS_ERR_INPUT, 'analysis: adapt max_steps = ' // itoa(settings%adapt%max_steps) // &
+          ' (expected 1 to ' // itoa(adapt_max_steps) // ')')
+        return
+      end if
     end if
     if (settings%levels < 1) then
       call set_error(st, DS_ERR_INPUT, 'analysis: levels = ' // itoa(settings%levels) // ' (expected >= 1)')
@@ -238,6 +292,7 @@ contains
     an%mesh = problem%mesh
     an%level = 0
     an%load_rule = tri_rule(load_degree)
+    an%t_start = wall_seconds()
     if (allocated(problem%u_exact)) an%exact_rule = tri_rule(exact_degree)
     if (settings%dual) then
       an%bound_rule_p1 = tri_rule(bound_degree_p1)
@@ -254,6 +309,8 @@ contains
     type(status_t), intent(out) :: st
     type(mesh_t) :: finer
     real(dp), allocatable :: u_next(:)
+    real(dp) :: t0
+    t0 = wall_seconds()
     if (an%level > 0) then
       call mesh_refine_uniform(an%mesh, finer, st)
       if (.not. is_ok(st)) return
@@ -269,8 +326,136 @@ contains
     call move_alloc(u_next, an%u)
     an%level = an%level + 1
     res%level = an%level
+    res%refine_seconds = wall_seconds() - t0
     call solve_level(an, res, st)
+    call finish_level(an, res, t0)
   end subroutine analysis_next_level
+
+  !> One step of the adaptive loop solve -> estimate -> mark -> refine: the coarse mesh on
+  !> the first call; later, the triangles of the previous step marked by Doerfler's
+  !> criterion on its element indicators est_elem (the local terms of E of (6.13)/(6.26)),
+  !> refined by newest-vertex bisection with conforming closure, the previous u_h carried
+  !> over (exact P1 interpolation: new nodes are edge midpoints) as the start of the solve,
+  !> whose active set it predicts (the contact set is transferred with it).  The mesh
+  !> changes every step, so the ordering and the factorisations are those of a new matrix.
+  !> An error leaves res partly filled and the analysis at the previous step.
+  subroutine analysis_next_step(an, res, st)
+    type(analysis_t), intent(inout) :: an
+    type(level_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    type(mesh_t) :: finer
+    logical, allocatable :: marked(:)
+    integer, allocatable :: parents(:,:)
+    real(dp), allocatable :: u_next(:), eta2(:)
+    real(dp) :: t0, floor
+    integer :: t
+    if (an%level == 0) then
+      call analysis_next_level(an, res, st)
+      if (is_ok(st)) res%max_depth = 0
+      return
+    end if
+    t0 = wall_seconds()
+    if (.not. allocated(an%est_elem)) then
+      call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ' needs the element ' // &
+        'indicators of the previous step (dual analysis with bounds)')
+      return
+    end if
+    ! Doerfler's criterion among the triangles that can still be bisected in double precision
+    eta2 = an%est_elem
+    floor = adapt_area_floor * geom_rel_tol * mesh_diameter(an%mesh)**2
+    do t = 1, an%mesh%ntri
+      if (mesh_triangle_area(an%mesh, t) < floor .and. eta2(t) > 0.0_dp) then
+        eta2(t) = 0.0_dp
+        res%nheld = res%nheld + 1
+      end if
+    end do
+    call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked)
+    if (res%nmarked == 0) then
+      call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ': no triangle to ' // &
+        'mark (every indicator is zero, or ' // itoa(res%nheld) // ' triangle(s) with positive ones are at the ' // &
+        'area floor of double precision)')
+      return
+    end if
+    call mesh_refine_marked(an%mesh, marked, finer, parents, st)
+    if (.not. is_ok(st)) return
+    allocate (u_next(finer%nnode))
+    call mesh_prolongate_bisection(parents, an%u, u_next)
+    call move_mesh(finer, an%mesh)
+    call move_alloc(u_next, an%u)
+    an%level = an%level + 1
+    res%level = an%level
+    res%max_depth = maxval(an%mesh%tri_gen)
+    res%refine_seconds = wall_seconds() - t0
+    call solve_level(an, res, st)
+    call finish_level(an, res, t0)
+  end subroutine analysis_next_step
+
+  !> Bookkeeping after a level or step that started at wall time t0: its timings, its
+  !> indicators for the next marking, its size for the stopping test.
+  subroutine finish_level(an, res, t0)
+    type(analysis_t), intent(inout) :: an
+    type(level_result_t), intent(inout) :: res
+    real(dp), intent(in) :: t0
+    real(dp) :: now
+    now = wall_seconds()
+    res%step_seconds = now - t0
+    res%elapsed_seconds = now - an%t_start
+    an%last_step_seconds = res%step_seconds
+    an%prev_ndof = an%last_ndof
+    an%last_ndof = res%ndof
+    if (allocated(an%est_elem)) deallocate (an%est_elem)
+    if (allocated(res%est_elem)) an%est_elem = res%est_elem
+  end subroutine finish_level
+
+  !> The certified relative error sqrt(est / energy_lo) of a level: huge when the level is
+  !> not certified or energy_lo <= 0 (no guaranteed relative error yet).
+  pure real(dp) function certified_rel_error(res) result(rel)
+    type(level_result_t), intent(in) :: res
+    rel = huge(1.0_dp)
+    if (res%has_dual .and. res%certified .and. res%energy_lo > 0.0_dp) rel = sqrt(max(res%est, 0.0_dp) / res%energy_lo)
+  end function certified_rel_error
+
+  !> Whether the adaptive loop stops after the step res (ADAPT_*): tol reached by a
+  !> certified step; max_ndof reached; the next step, predicted to take the last step's
+  !> time scaled by the growth of the unknowns, would end after max_seconds; max_steps done.
+  pure integer function analysis_adapt_stop(an, res) result(reason)
+    type(analysis_t), intent(in) :: an
+    type(level_result_t), intent(in) :: res
+    real(dp) :: growth
+    reason = ADAPT_GOING
+    associate (ad => an%settings%adapt)
+      if (ad%tol > 0.0_dp .and. certified_rel_error(res) <= ad%tol) then
+        reason = ADAPT_STOP_TOL
+      else if (ad%max_ndof > 0 .and. res%ndof >= ad%max_ndof) then
+        reason = ADAPT_STOP_NDOF
+      else if (an%level >= min(ad%max_steps, adapt_max_steps)) then
+        reason = ADAPT_STOP_STEPS
+      else if (ad%max_seconds > 0.0_dp) then
+        growth = 2.0_dp
+        if (an%prev_ndof > 0) growth = max(1.0_dp, real(an%last_ndof, dp) / real(an%prev_ndof, dp))
+        if (res%elapsed_seconds + an%last_step_seconds * growth > ad%max_seconds) reason = ADAPT_STOP_SECONDS
+      end if
+    end associate
+  end function analysis_adapt_stop
+
+  !> What a stop reason means, for tables and messages.
+  function adapt_stop_text(reason, ad) result(text)
+    integer, intent(in) :: reason
+    type(adapt_settings_t), intent(in) :: ad
+    character(len=:), allocatable :: text
+    select case (reason)
+    case (ADAPT_STOP_TOL)
+      text = 'tol: the certified relative error sqrt(est/energy_lo) reached tol = ' // rtoa(ad%tol)
+    case (ADAPT_STOP_NDOF)
+      text = 'max_ndof: the step reached max_ndof = ' // itoa(ad%max_ndof) // ' unknowns before tol'
+    case (ADAPT_STOP_SECONDS)
+      text = 'max_seconds: the next step would end after max_seconds = ' // rtoa(ad%max_seconds) // ' before tol'
+    case (ADAPT_STOP_STEPS)
+      text = 'max_steps: ' // itoa(min(ad%max_steps, adapt_max_steps)) // ' steps done before tol'
+    case default
+      text = 'going on'
+    end select
+  end function adapt_stop_text
 
   !> Release what an analysis holds.
   subroutine analysis_free(an)
@@ -322,11 +507,13 @@ contains
       call move_alloc(sys%bnd, res%bound)
       if (allocated(pb%u_exact)) call primal_errors(an, res)
       if (an%settings%dual) then
+        res%estimate_seconds = wall_seconds()
         if (pb%kind == PROBLEM_P1) then
           call dual_level_p1(an, res, st)
         else
           call dual_level_p2(an, res, st)
         end if
+        res%estimate_seconds = wall_seconds() - res%estimate_seconds
       end if
       if (is_ok(st)) call check_finite_results(an%level, res, st)
     end associate

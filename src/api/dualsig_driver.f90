@@ -28,7 +28,9 @@ module dualsig_driver
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_estimate_errors, only: exact_energy
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
-                              analysis_start, analysis_next_level, exact_degree
+                              analysis_start, analysis_next_level, exact_degree, analysis_next_step, &
+                              analysis_adapt_stop, adapt_stop_text, certified_rel_error, ADAPT_GOING, &
+                              adapt_max_steps
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
   use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
@@ -36,14 +38,15 @@ module dualsig_driver
                               table_format_header, observed_rate
   use dualsig_io_table, only: table_write_latex
   use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_run_files, &
-                            vtk_discard_run, vtk_level_path, vtk_contact_status
+                            vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, &
+                            mesh_edges_path
   use dualsig_strings, only: itoa, rtoa
   use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
                               text_abandon, memory_available_gb
   implicit none
   private
 
-  public :: run_namelist_file, run_one, primal_columns, dual_columns
+  public :: run_namelist_file, run_one, primal_columns, dual_columns, adapt_columns
 
   !> The exact solutions of the catalogue live on the unit square; bounding-box tolerance.
   real(dp), parameter :: domain_tol = 1.0e-12_dp
@@ -65,6 +68,10 @@ module dualsig_driver
   character(len=16), parameter :: dual_columns(13) = [character(len=16) :: &
     '#dual_iters', 'dual_s', 'err_q_Q', 'rate_q_Q', 'est', 'eff', 'energy_lo', 'energy_hi', &
     'err_q_L2', 'rate_q_L2', 'err_lambda3', 'rate_lambda3', '#certified']
+  !> Columns appended by an adaptive run (&adapt enabled): the observed rate of sqrt(est)
+  !> in ndof, the certified relative error, marks, depth, smallest angle and timings.
+  character(len=16), parameter :: adapt_columns(9) = [character(len=16) :: &
+    'rate_est_ndof', 'rel_cert', '#nmarked', '#nheld', '#max_depth', 'min_angle', 'refine_s', 'estimate_s', 'elapsed_s']
 
   !> A run as the driver sees it: the configuration, the problem built from it and what
   !> the header of the table needs.
@@ -77,6 +84,9 @@ module dualsig_driver
     logical :: by_names = .false.                 !! boundary parts given by Gmsh physical names
     integer :: nonconverged = 0                   !! warnings "iteration limit reached"
     integer :: uncertified = 0                    !! levels whose bounds are not certified
+    logical :: adaptive = .false.                 !! &adapt enabled: steps instead of levels
+    real(dp) :: min_angle = 180.0_dp              !! adaptive: smallest angle over the run's meshes
+    character(len=:), allocatable :: stop_text    !! adaptive: why the loop stopped
   end type run_t
 
 contains
@@ -149,7 +159,8 @@ contains
     integer, intent(in) :: unit
     type(table_t), intent(out), optional :: table
     call run_levels(cfg, st, unit, table)
-    if (.not. is_ok(st) .and. cfg%vtk) call vtk_discard_run(cfg%output, cfg%levels)
+    if (.not. is_ok(st) .and. cfg%vtk) call vtk_discard_run(cfg%output, max_rows(cfg))
+    if (.not. is_ok(st) .and. cfg%adapt_enabled) call file_delete(temp_name(mesh_edges_path(cfg%output)))
   end subroutine run_one
 
   !> One run: the problem and settings from cfg, then one analysis level after the other,
@@ -171,7 +182,7 @@ contains
     type(level_result_t) :: res
     type(table_t) :: tab
     type(status_t) :: st_write
-    integer :: level, done
+    integer :: level, done, reason
 
     run%cfg = cfg
     run%title = run_title(cfg)
@@ -182,7 +193,10 @@ contains
     if (st%code /= 0) return
     call ensure_parent_dir(trim(cfg%output) // '.txt', st)
     if (st%code /= 0) return
-    if (cfg%dual_enabled) then
+    run%adaptive = cfg%adapt_enabled
+    if (run%adaptive) then
+      call table_init(tab, [primal_columns, dual_columns, adapt_columns])
+    else if (cfg%dual_enabled) then
       call table_init(tab, [primal_columns, dual_columns])
     else
       call table_init(tab, primal_columns)
@@ -204,10 +218,15 @@ contains
     call mesh_quality_report(run%q0, unit)
     write (unit, '(a)') table_format_header(tab)
     done = 0
-    do level = 1, cfg%levels
+    reason = ADAPT_GOING
+    do level = 1, max_rows(cfg)
       call check_level_memory(run, an, level, st)
       if (.not. is_ok(st)) exit
-      call analysis_next_level(an, res, st)
+      if (run%adaptive) then
+        call analysis_next_step(an, res, st)
+      else
+        call analysis_next_level(an, res, st)
+      end if
       if (.not. is_ok(st)) then
         ! a mesh or assembly error names the run; a solver (numerical) error the run, its title and the level
         if (res%ndof > 0) then
@@ -220,7 +239,8 @@ contains
       end if
       call report_level(run, res, unit)
       call table_new_row(tab)
-      call level_row(tab, res, run%problem%kind)
+      call level_row(tab, res, run%problem%kind, run%adaptive)
+      if (run%adaptive) call step_row(run, tab, an, res)
       if (cfg%vtk) call vtk_level(run, an%mesh, res, st)
       if (.not. is_ok(st)) then
         st%msg = run%where // ': ' // st%msg
@@ -229,7 +249,17 @@ contains
       write (unit, '(a)') table_format_row(tab, level)
       flush (unit)
       done = level
+      if (run%adaptive) then
+        reason = analysis_adapt_stop(an, res)
+        if (reason /= ADAPT_GOING) exit
+      end if
     end do
+    if (run%adaptive .and. is_ok(st)) then
+      run%stop_text = adapt_stop_text(reason, settings%adapt)
+      write (unit, '(a)') 'dualsig: adaptive loop stopped after step ' // itoa(done) // ' (' // &
+        itoa(int(table_value(tab, done, 'ndof'))) // ' unknowns, certified relative error ' // &
+        rtoa(certified_rel_error(res)) // ', smallest angle ' // rtoa(run%min_angle) // ' deg): ' // run%stop_text
+    end if
     if (is_ok(st)) then
       call write_run_files(run, an%mesh, tab, done, '', st, unit)
     else if (done > 0) then
@@ -257,6 +287,8 @@ contains
     character(len=:), allocatable :: what
     if (level == 1) then
       ntri = run%problem%mesh%ntri
+    else if (run%adaptive) then
+      ntri = 2_int64 * an%mesh%ntri                   ! a bisection step (Doerfler marks a part)
     else
       ntri = 4_int64 * an%mesh%ntri                   ! one uniform refinement
     end if
@@ -529,7 +561,48 @@ contains
     settings%dual_particular = cfg%dual_particular
     settings%dual_space = cfg%dual_space
     settings%keep_fields = cfg%vtk
+    settings%adapt%enabled = cfg%adapt_enabled
+    settings%adapt%theta = cfg%adapt_theta
+    settings%adapt%tol = cfg%adapt_tol
+    settings%adapt%max_ndof = cfg%adapt_max_ndof
+    settings%adapt%max_seconds = cfg%adapt_max_seconds
   end subroutine settings_from_config
+
+  !> The most table rows of a run: its levels, or for an adaptive run the most steps.
+  pure integer function max_rows(cfg)
+    type(run_config_t), intent(in) :: cfg
+    max_rows = cfg%levels
+    if (cfg%adapt_enabled) max_rows = adapt_max_steps
+  end function max_rows
+
+  !> The adaptive columns of the current row: the observed rate p of sqrt(est) ~ ndof^(-p)
+  !> against the previous step, the certified relative error, marks, depth, the smallest
+  !> angle of the step's mesh (and over the run, in run%min_angle) and the timings.
+  subroutine step_row(run, tab, an, res)
+    type(run_t), intent(inout) :: run
+    type(table_t), intent(inout) :: tab
+    type(analysis_t), intent(in) :: an
+    type(level_result_t), intent(in) :: res
+    type(mesh_quality_t) :: q
+    real(dp) :: r, rel
+    logical :: ok
+    q = mesh_quality(an%mesh)
+    run%min_angle = min(run%min_angle, q%min_angle_deg)
+    call table_set(tab, 'min_angle', q%min_angle_deg)
+    call table_set(tab, 'nmarked', real(res%nmarked, dp))
+    call table_set(tab, 'nheld', real(res%nheld, dp))
+    call table_set(tab, 'max_depth', real(res%max_depth, dp))
+    call table_set(tab, 'refine_s', res%refine_seconds)
+    call table_set(tab, 'estimate_s', res%estimate_seconds)
+    call table_set(tab, 'elapsed_s', res%elapsed_seconds)
+    rel = certified_rel_error(res)
+    if (rel < huge(1.0_dp)) call table_set(tab, 'rel_cert', rel)
+    if (res%level > 1 .and. res%has_dual) then
+      call observed_rate(sqrt(max(table_value(tab, res%level - 1, 'est'), 0.0_dp)), sqrt(max(res%est, 0.0_dp)), &
+                         1.0_dp / table_value(tab, res%level - 1, 'ndof'), 1.0_dp / real(res%ndof, dp), r, ok)
+      if (ok) call table_set(tab, 'rate_est_ndof', r)
+    end if
+  end subroutine step_row
 
   !> The warnings and the dual solver's report of a level, on unit.
   subroutine report_level(run, res, unit)
@@ -576,10 +649,11 @@ contains
 
   !> The columns of the current table row from a level's result; rates are the observed
   !> orders against the previous row.
-  subroutine level_row(tab, res, kind)
+  subroutine level_row(tab, res, kind, adaptive)
     type(table_t), intent(inout) :: tab
     type(level_result_t), intent(in) :: res
     integer, intent(in) :: kind             !! PROBLEM_P1 or PROBLEM_P2
+    logical, intent(in) :: adaptive         !! rates against ndof^(-1/2) instead of h
     call table_set(tab, 'level', real(res%level, dp))
     call table_set(tab, 'h', res%h)
     call table_set(tab, 'ndof', real(res%ndof, dp))
@@ -587,8 +661,8 @@ contains
     call table_set(tab, 'primal_s', res%primal_seconds)
     call table_set(tab, 'kkt_residual', res%kkt_residual)
     if (res%has_exact) then
-      call set_with_rate(tab, res, 'err_u_H1', 'rate_u_H1', res%err_energy)
-      call set_with_rate(tab, res, 'err_u_L2', 'rate_u_L2', res%err_l2)
+      call set_with_rate(tab, res, adaptive, 'err_u_H1', 'rate_u_H1', res%err_energy)
+      call set_with_rate(tab, res, adaptive, 'err_u_L2', 'rate_u_L2', res%err_l2)
     end if
     if (.not. res%has_dual) return
     call table_set(tab, 'dual_iters', real(res%dual_iters, dp))
@@ -600,12 +674,12 @@ contains
     if (res%has_exact) then
       if (kind == PROBLEM_P1) then
         ! ||q - grad u||, ||f + div q - u|| and their combination
-        call set_with_rate(tab, res, 'err_q_Q', 'rate_q_Q', res%err_q_norm)
-        call set_with_rate(tab, res, 'err_q_L2', 'rate_q_L2', res%err_q)
-        call set_with_rate(tab, res, 'err_lambda3', 'rate_lambda3', res%err_div)
+        call set_with_rate(tab, res, adaptive, 'err_q_Q', 'rate_q_Q', res%err_q_norm)
+        call set_with_rate(tab, res, adaptive, 'err_q_L2', 'rate_q_L2', res%err_q)
+        call set_with_rate(tab, res, adaptive, 'err_lambda3', 'rate_lambda3', res%err_div)
       else
         ! ||grad u - lambda_h||
-        call set_with_rate(tab, res, 'err_q_Q', 'rate_q_Q', res%err_q)
+        call set_with_rate(tab, res, adaptive, 'err_q_Q', 'rate_q_Q', res%err_q)
       end if
       if (res%err_energy > 0.0_dp) call table_set(tab, 'eff', sqrt(res%est) / res%err_energy)
     end if
@@ -613,17 +687,24 @@ contains
 
   !> Set column `name` of the current row to `value` and `rate_name` to its observed order
   !> against the previous row.
-  subroutine set_with_rate(tab, res, name, rate_name, value)
+  subroutine set_with_rate(tab, res, adaptive, name, rate_name, value)
     type(table_t), intent(inout) :: tab
     type(level_result_t), intent(in) :: res
+    logical, intent(in) :: adaptive
     character(len=*), intent(in) :: name, rate_name
     real(dp), intent(in) :: value
     real(dp) :: r
     logical :: ok
     call table_set(tab, name, value)
     if (res%level == 1) return
-    call observed_rate(table_value(tab, res%level - 1, name), value, table_value(tab, res%level - 1, 'h'), &
-                       res%h, r, ok)
+    if (adaptive) then
+      ! graded meshes: h hardly changes; the order in the equivalent mesh size ndof^(-1/2)
+      call observed_rate(table_value(tab, res%level - 1, name), value, table_value(tab, res%level - 1, 'ndof')**(-0.5_dp), &
+                         real(res%ndof, dp)**(-0.5_dp), r, ok)
+    else
+      call observed_rate(table_value(tab, res%level - 1, name), value, table_value(tab, res%level - 1, 'h'), &
+                         res%h, r, ok)
+    end if
     if (ok) call table_set(tab, rate_name, r)
   end subroutine set_with_rate
 
@@ -666,6 +747,7 @@ contains
         end do
       end if
       vfields%est_element = res%est_elem
+      if (allocated(mesh%tri_gen)) vfields%depth = mesh%tri_gen
       vfields%est = res%est
       vfields%has_est = .true.
     end if
@@ -707,6 +789,20 @@ contains
           ' (uniform refinement keeps both)', &
         'h = longest side; ndof = unknowns not fixed by Gamma_u; primal_s = wall time of the ' // &
           'solve; rates = observed orders between levels']
+      if (run%adaptive) then
+        line = 'adaptive: level = step of solve -> estimate -> mark (Doerfler, theta = ' // rtoa(cfg%adapt_theta) // &
+          ', on est_element) -> refine (newest-vertex bisection, conforming closure); rates in ndof^(-1/2), ' // &
+          'rate_est_ndof = p in sqrt(est) ~ ndof^(-p); rel_cert = sqrt(est / energy_lo)'
+        header = [character(len=300) :: header, line]
+        line = 'adaptive: smallest angle over all steps ' // rtoa(run%min_angle) // ' deg; refine_s = marking, ' // &
+          'bisection and transfer of u_h; estimate_s = dual solve and bounds; elapsed_s = since the start; ' // &
+          'nheld = triangles left unmarked at the area floor of double precision'
+        header = [character(len=300) :: header, line]
+        if (allocated(run%stop_text)) then
+          line = 'adaptive loop STOPPED at ' // run%stop_text
+          header = [character(len=300) :: header, line]
+        end if
+      end if
       if (cfg%dual_enabled) then
         if (scene%problem == PROBLEM_P1) then
           line = 'est = E(q_h, u_h) of (6.13) >= ||u - u_h||_1^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
@@ -830,30 +926,35 @@ contains
       tex_path = trim(cfg%output) // '.tex'
       header = table_header(run, mesh)
       if (len(stopped) > 0) then
-        line = 'STOPPED after level ' // itoa(nlevel) // ' of ' // itoa(cfg%levels) // ': ' // stopped
+        line = 'STOPPED after level ' // itoa(nlevel) // ' of ' // itoa(max_rows(cfg)) // ': ' // stopped
         header = [character(len=len(header)) :: header(1:1), line, header(2:)]
       end if
       ! (element by element: gfortran 12 corrupts the heap on some constructors of strings)
-      allocate (paths(2 + merge(1, 0, cfg%latex) + merge(nlevel + 1, 0, cfg%vtk)))
+      allocate (paths(2 + merge(1, 0, cfg%latex) + merge(1, 0, run%adaptive) + merge(nlevel + 1, 0, cfg%vtk)))
       paths(1) = txt_path
       paths(2) = csv_path
       if (cfg%latex) paths(3) = tex_path
+      if (run%adaptive) paths(3 + merge(1, 0, cfg%latex)) = mesh_edges_path(cfg%output)
       if (cfg%vtk) paths(size(paths) - nlevel:) = vtk_run_files(cfg%output, nlevel)
       call table_write_text(tab, txt_path, header, st)
       if (st%code == 0) call table_write_csv(tab, csv_path, st)
       if (st%code == 0 .and. cfg%latex) call table_write_latex(tab, tex_path, run%title, st)
       if (st%code == 0 .and. cfg%vtk) call vtk_write_collection(cfg%output, nlevel, st)
+      if (st%code == 0 .and. run%adaptive) call mesh_edges_write(mesh_edges_path(cfg%output), mesh, st)
       if (st%code == 0) call file_commit_all(paths, st)
       if (st%code /= 0) then
         st%msg = run%where // ': ' // st%msg
         call file_delete(temp_name(txt_path))
         call file_delete(temp_name(csv_path))
         call file_delete(temp_name(tex_path))
-        if (cfg%vtk) call vtk_discard_run(cfg%output, cfg%levels)
+        if (run%adaptive) call file_delete(temp_name(mesh_edges_path(cfg%output)))
+        if (cfg%vtk) call vtk_discard_run(cfg%output, max_rows(cfg))
         return
       end if
       write (unit, '(a)') 'dualsig: table written to ' // txt_path // ' and ' // csv_path
       if (cfg%latex) write (unit, '(a)') 'dualsig: LaTeX table written to ' // tex_path
+      if (run%adaptive) write (unit, '(a)') 'dualsig: final mesh written to ' // mesh_edges_path(cfg%output) // &
+        ' (gnuplot: plot ''' // mesh_edges_path(cfg%output) // ''' with lines; make plots)'
       if (cfg%vtk) write (unit, '(a)') 'dualsig: ParaView files written: ' // trim(cfg%output) // &
         '.pvd and ' // itoa(nlevel) // ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu'
       if (run%nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &

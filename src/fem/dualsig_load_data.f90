@@ -44,7 +44,7 @@ module dualsig_load_data
   !> least halve over max_stalls consecutive levels is not subdivided further (and not
   !> converged).
   integer, parameter :: stagnation_depth = 3
-  integer, parameter :: max_stalls = 3
+  integer, parameter :: max_stalls = 4
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)

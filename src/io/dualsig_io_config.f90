@@ -47,6 +47,8 @@ module dualsig_io_config
     'method omega omega_auto tol max_iter check_every nested'
   character(len=*), parameter :: dual_items = &
     'enabled method rho tol tol_h2 max_iter ordering inner particular space'
+  character(len=*), parameter :: adapt_items = &
+    'enabled theta tol max_ndof max_seconds'
   character(len=*), parameter :: problem_items = &
     'kind f u_exact breaks f_regions f_region_values f_file'
 
@@ -94,6 +96,12 @@ module dualsig_io_config
     character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
     character(len=16) :: dual_particular = 'polynomial' !! P2 lambda^f: 'polynomial' or 'stream' (the paper's)
     character(len=16) :: dual_space = 'hdiv'      !! P1: 'hdiv' (RT1, tight bounds) or 'paper' (Section 3)
+    ! &adapt: solve -> estimate -> mark (Doerfler) -> refine (newest-vertex bisection)
+    logical :: adapt_enabled = .false.
+    real(dp) :: adapt_theta = 0.5_dp               !! Doerfler parameter, 0 < theta <= 1
+    real(dp) :: adapt_tol = 0.0_dp                 !! target of sqrt(est)/sqrt(energy_lo); 0 = none
+    integer :: adapt_max_ndof = 0                  !! 0 = no limit
+    real(dp) :: adapt_max_seconds = 0.0_dp         !! 0 = no limit
     ! &problem (one's own problem instead of a scene)
     logical :: scene_given = .false.               !! &run scene was given explicitly
     logical :: has_problem = .false.               !! a &problem group was given
@@ -133,8 +141,9 @@ contains
     type(text_line_t), allocatable :: lines(:)
     type(group_t), allocatable :: groups(:)
     integer :: g, r, nrun
-    logical :: seen(4)                    ! &mesh, &solver, &dual, &problem in the current run
-    character(len=*), parameter :: member_groups(4) = [character(len=8) :: 'mesh', 'solver', 'dual', 'problem']
+    logical :: seen(5)                    ! &mesh, &solver, &dual, &problem, &adapt in the current run
+    character(len=*), parameter :: member_groups(5) = [character(len=8) :: 'mesh', 'solver', 'dual', 'problem', &
+                                                       'adapt']
     integer :: kgroup
 
     allocate (runs(0))
@@ -179,6 +188,8 @@ contains
           call apply_group(path, groups(g), solver_items, runs(r), st)
         case (3)
           call apply_group(path, groups(g), dual_items, runs(r), st)
+        case (5)
+          call apply_group(path, groups(g), adapt_items, runs(r), st)
         case default
           runs(r)%has_problem = .true.
           runs(r)%problem_line = groups(g)%line
@@ -187,8 +198,8 @@ contains
       else
         call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(groups(g)%line) // &
           ': unknown namelist group &' // trim(groups(g)%name) // &
-          did_you_mean(groups(g)%name, 'run mesh solver dual problem', '&') // &
-          '; expected &run, &mesh, &solver, &dual or &problem')
+          did_you_mean(groups(g)%name, 'run mesh solver dual problem adapt', '&') // &
+          '; expected &run, &mesh, &solver, &dual, &problem or &adapt')
         return
       end if
       if (st%code /= 0) return
@@ -207,7 +218,7 @@ contains
   function config_echo(cfg) result(lines)
     type(run_config_t), intent(in) :: cfg
     character(len=:), allocatable :: lines(:)
-    character(len=300) :: fixed(5)
+    character(len=300) :: fixed(6)
     character(len=:), allocatable :: prob
     integer :: n, k, w
     fixed = ''
@@ -242,6 +253,12 @@ contains
       trim(cfg%dual_ordering) // ''', inner = ''' // trim(cfg%dual_inner) // ''', particular = ''' // &
       trim(cfg%dual_particular) // ''', space = ''' // trim(cfg%dual_space) // ''' /'
     n = n + 3
+    if (cfg%adapt_enabled) then
+      fixed(n + 1) = '&adapt enabled = .true., theta = ' // rtoa(cfg%adapt_theta) // ', tol = ' // &
+        rtoa(cfg%adapt_tol) // ', max_ndof = ' // itoa(cfg%adapt_max_ndof) // ', max_seconds = ' // &
+        rtoa(cfg%adapt_max_seconds) // ' /'
+      n = n + 1
+    end if
     prob = ''
     if (cfg%has_problem) prob = problem_echo(cfg)
     w = max(len(fixed), len(prob))
@@ -388,7 +405,7 @@ contains
         if (cur(k:k) == '!') cycle
         if (cur(k:k) /= '&') then
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // &
-            ': expected the start of a namelist group (&run, &mesh, &solver, &dual or &problem), found "' // &
+            ': expected the start of a namelist group (&run, &mesh, &solver, &dual, &problem or &adapt), found "' // &
             trim(cur(k:min(len_trim(cur), k + 30))) // '"')
           allocate (groups(0))
           return
@@ -700,6 +717,9 @@ contains
     else if (gname == 'problem') then
       call read_problem_group(assign, cfg, ios, msg)
       return
+    else if (gname == 'adapt') then
+      call read_adapt_group(assign, cfg, ios, msg)
+      return
     end if
 
     rec(1) = '&' // gname
@@ -873,6 +893,71 @@ contains
     cfg%dual_particular = particular(1:len(cfg%dual_particular))
     cfg%dual_space = space(1:len(cfg%dual_space))
   end subroutine read_dual_group
+
+  !> Read the assignments of the &adapt group into cfg.
+  subroutine read_adapt_group(assign, cfg, ios, msg)
+    character(len=*), intent(in) :: assign(:)
+    type(run_config_t), intent(inout) :: cfg
+    integer, intent(out) :: ios
+    character(len=*), intent(out) :: msg
+    character(len=len(assign) + 16) :: rec(size(assign) + 2)
+    logical :: enabled
+    real(dp) :: theta, tol, max_seconds
+    integer :: max_ndof, k
+    namelist /adapt/ enabled, theta, tol, max_ndof, max_seconds
+    logical :: saved_halting(size(ieee_usual))
+    rec(1) = '&adapt'
+    do k = 1, size(assign)
+      rec(k + 1) = assign(k)
+    end do
+    rec(size(rec)) = '/'
+    msg = ''
+    enabled = cfg%adapt_enabled
+    theta = cfg%adapt_theta
+    tol = cfg%adapt_tol
+    max_ndof = cfg%adapt_max_ndof
+    max_seconds = cfg%adapt_max_seconds
+    call fp_traps_off(saved_halting)
+    read (rec, nml=adapt, iostat=ios, iomsg=msg)
+    call ieee_set_halting_mode(ieee_usual, saved_halting)
+    if (ios /= 0) return
+    if (.not. all(ieee_is_finite([theta, tol, max_seconds]))) then
+      call bad_value('a finite real number', ios, msg)
+      return
+    end if
+    cfg%adapt_enabled = enabled
+    cfg%adapt_theta = theta
+    cfg%adapt_tol = tol
+    cfg%adapt_max_ndof = max_ndof
+    cfg%adapt_max_seconds = max_seconds
+  end subroutine read_adapt_group
+
+  !> Range checks of the &adapt group (after validate's), each naming the variable.
+  subroutine validate_adapt(cfg, where, st)
+    type(run_config_t), intent(in) :: cfg
+    character(len=*), intent(in) :: where
+    type(status_t), intent(inout) :: st
+    if (.not. (cfg%adapt_theta > 0.0_dp .and. cfg%adapt_theta <= 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt theta = ' // rtoa(cfg%adapt_theta) // &
+        '; expected 0 < theta <= 1 (Doerfler: the marked indicators sum to at least theta est)')
+    else if (.not. (cfg%adapt_tol >= 0.0_dp .and. cfg%adapt_tol < 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt tol = ' // rtoa(cfg%adapt_tol) // &
+        '; expected 0 <= tol < 1 (the certified relative error to reach; 0: none)')
+    else if (cfg%adapt_max_ndof < 0) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt max_ndof = ' // itoa(cfg%adapt_max_ndof) // &
+        '; expected >= 0 (0: no limit)')
+    else if (.not. cfg%adapt_max_seconds >= 0.0_dp) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt max_seconds = ' // rtoa(cfg%adapt_max_seconds) // &
+        '; expected >= 0 (0: no limit)')
+    else if (cfg%adapt_enabled .and. .not. cfg%dual_enabled) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt enabled = .true. needs &dual enabled = .true. ' // &
+        '(the element indicators of the bound est drive the marking)')
+    else if (cfg%adapt_enabled .and. cfg%adapt_tol == 0.0_dp .and. cfg%adapt_max_ndof == 0 .and. &
+             cfg%adapt_max_seconds == 0.0_dp) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt enabled = .true. without tol, max_ndof or max_seconds; ' // &
+        'expected at least one of them > 0 (when to stop)')
+    end if
+  end subroutine validate_adapt
 
   !> Read the assignments of the &problem group into cfg.  Its strings are read into
   !> variables as long as the assignments, so that no expression is cut.
@@ -1083,6 +1168,7 @@ contains
       call set_error(st, DS_ERR_INPUT, where // '&dual space = "' // trim(cfg%dual_space) // &
         '"; expected hdiv (Raviart-Thomas of order 1, the default) or paper (the continuous P1 fields of Section 3)')
     end if
+    if (st%code == 0) call validate_adapt(cfg, where, st)
   end subroutine validate
 
   ! ================================================================== small helpers
@@ -1136,7 +1222,7 @@ contains
       s = 'a list of at most 16 quoted region names or tags'
     case ('f_region_values')
       s = 'a list of at most 16 quoted expressions'
-    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb')
+    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb', 'theta', 'max_seconds')
       s = 'a real number'
     case ('omega_auto', 'nested', 'enabled', 'vtk', 'latex')
       s = 'a logical, .true. or .false.'

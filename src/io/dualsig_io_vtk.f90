@@ -13,7 +13,8 @@
 !>   CellData   est_element (element contributions of est, boundary-edge terms added to the
 !>              triangle that owns the edge: their sum is est); lambda_h (P2 equilibrium field,
 !>              or the P1 RT1 field of the space 'hdiv', at the centroid, 3 components with
-!>              z = 0); lambda_h_vertices (6 components:
+!>              z = 0); depth (Int32, adaptive runs: bisections of the triangle from its
+!>              coarse ancestor); lambda_h_vertices (6 components:
 !>              the x and y components of lambda_h at the triangle's vertices 1, 2, 3, taken
 !>              from inside the triangle: the field is discontinuous between triangles)
 !>   Points     x, y, 0;  Cells  VTK_TRIANGLE (type 5), 0-based vertex numbers, counter-clockwise
@@ -35,7 +36,7 @@ module dualsig_io_vtk
   private
 
   public :: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_commit_run, vtk_discard_run, vtk_run_files
-  public :: vtk_level_path, vtk_collection_path, vtk_contact_status
+  public :: vtk_level_path, vtk_collection_path, vtk_contact_status, mesh_edges_write, mesh_edges_path
   public :: CONTACT_INTERIOR, CONTACT_SEPARATED, CONTACT_ACTIVE, CONTACT_DIRICHLET
 
   integer, parameter :: CONTACT_INTERIOR = -1   !! node not on the boundary
@@ -55,6 +56,7 @@ module dualsig_io_vtk
     real(dp), allocatable :: est_element(:)        !! (ntri) contributions of est
     logical :: has_est = .false.                   !! est below is set
     real(dp) :: est = 0.0_dp                       !! the bound E of the level
+    integer, allocatable :: depth(:)               !! (ntri) adaptive: refinement depth (bisections)
   end type vtk_fields_t
 
 contains
@@ -122,6 +124,7 @@ contains
     if (allocated(fld%lambda_vertices)) bad = bad .or. size(fld%lambda_vertices, 1) /= 6 .or. &
                                               size(fld%lambda_vertices, 2) /= mesh%ntri
     if (allocated(fld%est_element)) bad = bad .or. size(fld%est_element) /= mesh%ntri
+    if (allocated(fld%depth)) bad = bad .or. size(fld%depth) /= mesh%ntri
     if (bad) then
       call set_error(st, DS_ERR_INPUT, trim(path) // ': a field does not match the mesh (' // &
         itoa(mesh%nnode) // ' nodes, ' // itoa(mesh%ntri) // ' triangles)')
@@ -158,6 +161,7 @@ contains
       call text_put(tf, '      <CellData>')
     end if
     if (allocated(fld%est_element)) call real_array(tf, 'est_element', 1, fld%est_element)
+    if (allocated(fld%depth)) call int_array(tf, 'depth', 1, fld%depth)
     if (allocated(fld%lambda_centroid)) call real_array(tf, 'lambda_h', 3, pad_z(fld%lambda_centroid))
     if (allocated(fld%lambda_vertices)) call real_array(tf, 'lambda_h_vertices', 6, &
                                                         reshape(fld%lambda_vertices, [6 * mesh%ntri]))
@@ -265,6 +269,36 @@ contains
     end do
     call file_delete(temp_name(vtk_collection_path(output)))
   end subroutine vtk_discard_run
+
+  !> The gnuplot file of a run's final mesh: `<output>_mesh.dat`.
+  pure function mesh_edges_path(output) result(path)
+    character(len=*), intent(in) :: output
+    character(len=:), allocatable :: path
+    path = trim(output) // '_mesh.dat'
+  end function mesh_edges_path
+
+  !> The edges of `mesh` as gnuplot segments (x y / x y / blank line) to temp_name(path);
+  !> the caller commits.  `plot 'file' with lines` draws the mesh.
+  subroutine mesh_edges_write(path, mesh, st)
+    character(len=*), intent(in) :: path
+    type(mesh_t), intent(in) :: mesh
+    type(status_t), intent(out) :: st
+    type(text_file_t) :: tf
+    character(len=80) :: buf
+    integer :: e, k
+    call text_open(tf, path, st)
+    if (st%code /= 0) return
+    call text_put(tf, '# dualsig mesh: ' // itoa(mesh%nnode) // ' nodes, ' // itoa(mesh%ntri) // &
+      ' triangles, ' // itoa(mesh%nedge) // ' edges as segments')
+    do e = 1, mesh%nedge
+      do k = 1, 2
+        write (buf, '(2es24.15e3)') mesh%xy(:, mesh%edge_nodes(k, e))
+        call text_put(tf, trim(buf))
+      end do
+      call text_put(tf, '')
+    end do
+    call text_close(tf, st)
+  end subroutine mesh_edges_write
 
   ! ------------------------------------------------------------------ private
   !> One real DataArray of `ncomp` components (values in tuple order), four per line.

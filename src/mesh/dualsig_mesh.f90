@@ -33,6 +33,10 @@ module dualsig_mesh
     !> (ntri) region of each triangle (Gmsh physical surface tag, Triangle region attribute);
     !> unallocated when the mesh source has no regions.  Refinement: children inherit it.
     integer, allocatable :: tri_region(:)
+    !> (ntri) newest-vertex bisection (dualsig_mesh_adapt): bisections from the coarse
+    !> ancestor; allocated only on meshes made by it, whose local edge 1 of every triangle
+    !> (vertices 1, 2) is then its refinement edge.  Unallocated: no labelling yet.
+    integer, allocatable :: tri_gen(:)
     ! ---- derived by mesh_build_topology ----
     integer, allocatable :: edge_nodes(:,:)     !! (2, nedge) end nodes, edge_nodes(1,e) < edge_nodes(2,e)
     integer, allocatable :: edge_tri(:,:)       !! (2, nedge) adjacent triangles; edge_tri(2,e) = 0 on the boundary

@@ -47,7 +47,8 @@ module dualsig_scenes
   real(dp), parameter :: d_jump = 0.6_dp, amp_jump = 1000.0_dp
 
   character(len=*), parameter :: scene_names = &
-    'p1_contact, p2_contact, p1_jump, p2_jump, p1_lshape_load, p2_lshape_load, p2_holed_load'
+    'p1_contact, p2_contact, p1_jump, p2_jump, p1_lshape_load, p2_lshape_load, p2_holed_load, ' // &
+    'p2_lshape_corner'
 
   type :: scene_t
     character(len=32) :: name = ''
@@ -130,6 +131,16 @@ contains
       scene%gamma_u_markers(1:3) = [4, 5, 6]
       scene%description = 'P2 on the L-shape, f = 20 x + 5 sin(pi y): Signorini on the lower sides'
       allocate (scene%f, source=function_field(lshape_p2_f))
+    case ('p2_lshape_corner')
+      ! (issue 14) a load that is positive at the re-entrant corner (a strong r^(2/3)
+      ! singularity with Dirichlet sides there) and negative at the outer corners (contact
+      ! and separation, with transitions, on the Signorini sides)
+      scene%problem = PROBLEM_P2
+      scene%gamma_u_markers(1:2) = [2, 3]
+      scene%gamma_a_markers(1:4) = [1, 4, 5, 6]
+      scene%description = 'P2 on the L-shape, f = 10 - 15 (x^2 + y^2): u = 0 on the re-entrant sides, ' // &
+        'Signorini on the outer ones'
+      allocate (scene%f, source=function_field(lshape_corner_f))
     case ('p2_holed_load')
       scene%problem = PROBLEM_P2
       scene%gamma_u_markers(1:2) = [4, 8]
@@ -307,6 +318,11 @@ contains
     real(dp), intent(in) :: x, y
     f = 20.0_dp * x + 5.0_dp * sin(pi * y)
   end function lshape_p2_f
+
+  pure real(dp) function lshape_corner_f(x, y) result(f)
+    real(dp), intent(in) :: x, y
+    f = 10.0_dp - 15.0_dp * (x**2 + y**2)
+  end function lshape_corner_f
 
   pure real(dp) function holed_p2_f(x, y) result(f)
     real(dp), intent(in) :: x, y

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Work-precision of adaptive against uniform refinement (issue 14), measured in one run on
+# the same machine: for each case the uniform runs (levels = 1..LMAX, each a separate run
+# timed as a whole: grid sequencing runs every coarser level too) and one adaptive run
+# (&adapt, the elapsed_s column of its table).  Writes out/wp/<case>_uniform.csv
+# (level, ndof, est, energy_lo, rel_cert, seconds) and out/wp/<case>_adapt.csv (the table).
+# Usage: bench/adapt_work_precision.sh [LMAX]   (default 9; bin/dualsig must be built)
+set -euo pipefail
+LMAX=${1:-9}
+mkdir -p out/wp
+# case: name scene gamma_u gamma_a mesh-group adapt-tol adapt-max-ndof
+cases=(
+  "lshape_dirichlet_corner|p2_lshape_corner|2, 3|1, 4, 5, 6|source = 'lshape', n = 1|1.0e-3|300000"
+  "lshape_transition|p2_lshape_load|4, 5, 6|1, 2, 3|source = 'lshape', n = 1|1.0e-3|300000"
+  "square_smooth|p2_contact|2, 3, 4|1|source = 'rectangle', nx = 2, ny = 2|1.0e-3|300000"
+)
+namelist() {  # name scene gu ga mesh levels [adapt tol ndof]
+  cat <<NML
+&run
+  title = '$1', scene = '$2', output = 'out/wp/$1_run'
+  gamma_u_markers = $3
+  gamma_a_markers = $4
+/
+&mesh
+  $5, levels = $6
+/
+&solver
+  method = 'active_set'
+/
+&dual
+  enabled = .true., method = 'augmented'
+/
+NML
+  if [ $# -gt 6 ]; then printf '&adapt\n  enabled = .true., tol = %s, max_ndof = %s, max_seconds = 300\n/\n' "$7" "$8"; fi
+}
+for c in "${cases[@]}"; do
+  IFS='|' read -r name scene gu ga mesh tol ndof <<<"$c"
+  out=out/wp/${name}_uniform.csv
+  echo "level,ndof,est,energy_lo,rel_cert,seconds" > "$out"
+  for L in $(seq 1 "$LMAX"); do
+    namelist "$name" "$scene" "$gu" "$ga" "$mesh" "$L" > out/wp/${name}.nml
+    t0=$(date +%s.%N)
+    ./bin/dualsig out/wp/${name}.nml > /dev/null || [ $? -eq 3 ]
+    t1=$(date +%s.%N)
+    python3 - "$out" "$L" "$t0" "$t1" out/wp/${name}_run.csv <<'PY'
+import csv, sys, math
+out, L, t0, t1, table = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4]), sys.argv[5]
+rows = list(csv.DictReader(open(table)))
+r = rows[-1]
+est, lo = float(r['est']), float(r['energy_lo'])
+rel = math.sqrt(est / lo) if lo > 0 else float('nan')
+open(out, 'a').write(f"{L},{int(float(r['ndof']))},{est:.6e},{lo:.10e},{rel:.6e},{t1 - t0:.4f}\n")
+PY
+  done
+  namelist "$name" "$scene" "$gu" "$ga" "$mesh" 1 "$tol" "$ndof" > out/wp/${name}_adapt.nml
+  sed -i "s#output = 'out/wp/${name}_run'#output = 'out/wp/${name}_adapt'#" out/wp/${name}_adapt.nml
+  ./bin/dualsig out/wp/${name}_adapt.nml > out/wp/${name}_adapt.log || [ $? -eq 3 ]
+  tail -n 4 out/wp/${name}_adapt.log | head -n 1
+done
+python3 bench/adapt_summary.py
