@@ -714,11 +714,7 @@ contains
     if (.not. an%settings%bounds) return
     call level_load_data(an, load, res, st)
     if (.not. is_ok(st)) return
-    if (hdiv) then
-      call hdiv_bounds_level(an, q, load, res, bounds)
-    else
-      call paper_bounds_level(an, q, load, res, bounds)
-    end if
+    call p1_bounds_level(an, q, load, hdiv, res, bounds)
     res%est = bounds%est
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
@@ -726,47 +722,37 @@ contains
     res%certified = res%load_unresolved == 0
   end subroutine dual_level_p1
 
-  !> The bounds of P1 and the dual errors with the continuous field q of Section 3.
-  subroutine paper_bounds_level(an, q, load, res, bounds)
+  !> The bounds of P1 from the load data and, with an exact solution, the dual errors: for
+  !> the RT1 field q (hdiv) or the continuous field of Section 3.
+  subroutine p1_bounds_level(an, q, load, hdiv, res, bounds)
     type(analysis_t), intent(in) :: an
     real(dp), intent(in) :: q(:)
     type(load_data_t), intent(in) :: load
+    logical, intent(in) :: hdiv
     type(level_result_t), intent(inout) :: res
     type(dual_p1_bounds_t), intent(out) :: bounds
-    associate (pb => an%problem)
-      call dual_p1_bounds_load(an%mesh, an%u, q, load, bounds)
-      if (res%has_exact) then
-        if (allocated(pb%x_breaks)) then
-          call dual_p1_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
-                              res%err_q_norm, pb%x_breaks)
-        else
-          call dual_p1_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
-                              res%err_q_norm)
-        end if
-      end if
-    end associate
-  end subroutine paper_bounds_level
-
-  !> The bounds of P1 and the dual errors with the RT1 field q.
-  subroutine hdiv_bounds_level(an, q, load, res, bounds)
-    type(analysis_t), intent(in) :: an
-    real(dp), intent(in) :: q(:)
-    type(load_data_t), intent(in) :: load
-    type(level_result_t), intent(inout) :: res
-    type(dual_p1_bounds_t), intent(out) :: bounds
-    associate (pb => an%problem)
+    real(dp), allocatable :: breaks(:)
+    if (hdiv) then
       call dual_hdiv_bounds_load(an%mesh, an%u, q, load, bounds)
-      if (res%has_exact) then
-        if (allocated(pb%x_breaks)) then
-          call dual_hdiv_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
-                                res%err_q_norm, pb%x_breaks)
-        else
-          call dual_hdiv_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
-                                res%err_q_norm)
-        end if
+    else
+      call dual_p1_bounds_load(an%mesh, an%u, q, load, bounds)
+    end if
+    if (.not. res%has_exact) return
+    associate (pb => an%problem)
+      if (allocated(pb%x_breaks)) then
+        breaks = pb%x_breaks
+      else
+        allocate (breaks(0))
+      end if
+      if (hdiv) then
+        call dual_hdiv_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
+                              res%err_q_norm, breaks)
+      else
+        call dual_p1_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
+                            res%err_q_norm, breaks)
       end if
     end associate
-  end subroutine hdiv_bounds_level
+  end subroutine p1_bounds_level
 
   !> The load data of the level (dualsig_load_data: per-triangle mean, moments and
   !> oscillation of f, integrated until converged); triangles where they did not converge
