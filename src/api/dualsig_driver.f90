@@ -793,14 +793,14 @@ contains
         line = 'adaptive: level = step of solve -> estimate -> mark (Doerfler, theta = ' // rtoa(cfg%adapt_theta) // &
           ', on est_element) -> refine (newest-vertex bisection, conforming closure); rates in ndof^(-1/2), ' // &
           'rate_est_ndof = p in sqrt(est) ~ ndof^(-p); rel_cert = sqrt(est / energy_lo)'
-        header = [character(len=300) :: header, line]
+        head = [character(len=300) :: head, line]
         line = 'adaptive: smallest angle over all steps ' // rtoa(run%min_angle) // ' deg; refine_s = marking, ' // &
           'bisection and transfer of u_h; estimate_s = dual solve and bounds; elapsed_s = since the start; ' // &
           'nheld = triangles left unmarked at the area floor of double precision'
-        header = [character(len=300) :: header, line]
+        head = [character(len=300) :: head, line]
         if (allocated(run%stop_text)) then
           line = 'adaptive loop STOPPED at ' // run%stop_text
-          header = [character(len=300) :: header, line]
+          head = [character(len=300) :: head, line]
         end if
       end if
       if (cfg%dual_enabled) then
