@@ -11,9 +11,9 @@
 !> E is summed from its non-negative element and edge terms (Remark 6.1).  Exactness:
 !> - ||q - grad u~||^2 and ||q||^2 are integrals of polynomials of degree 4, integrated
 !>   exactly (Radon's degree-5 rule);
-!> - in ||f + div q - u~||^2, ||f + div q||^2 and (f, u~) the factor div q - u~ (or div q, u~) is
-!>   linear, so with the caller's rule of degree >= 2 its polynomial part is exact; f is
-!>   integrated by that rule, split at the break lines of f (the existing mechanism);
+!> - ||f + div q - u~||^2, ||f + div q||^2 and (f, u~): f enters only through its load data
+!>   (dualsig_load_data: mean, moments, Pi_1 f and ||f - Pi_1 f|| per triangle), by exact
+!>   identities, div q - u~ being linear (see dual_hdiv_bounds_load);
 !> - the edge term: q.nu and u~ are both linear on a boundary edge, integrated exactly; q.nu
 !>   is taken >= 0 at the edge ends (it is, for a feasible q), which can only increase E.
 !> Element contributions (edge terms added to the triangle of the edge) are returned.
@@ -30,75 +30,15 @@ module dualsig_estimate_dual_hdiv
   implicit none
   private
 
-  public :: dual_hdiv_bounds, dual_hdiv_bounds_load, dual_hdiv_errors
+  public :: dual_hdiv_bounds_load, dual_hdiv_errors
 
   !> Degree of the rule for the linear-times-linear integrands of dual_hdiv_bounds_load.
   integer, parameter :: linear_product_degree = 2
 
 contains
 
-  !> The bounds (6.13) and (6.14) for the nodal u~ (nnode) and the RT1 field x
-  !> (hdiv_nfield); f is integrated with `rule` (degree >= 2; choose a high degree).
-  subroutine dual_hdiv_bounds(mesh, u, x, f, rule, bnd, breaks)
-    type(mesh_t), intent(in) :: mesh
-    real(dp), intent(in) :: u(:), x(:)
-    class(field_t), intent(in) :: f
-    type(tri_rule_t), intent(in) :: rule
-    type(dual_p1_bounds_t), intent(out) :: bnd
-    real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
-    type(tri_rule_t) :: prule
-    type(tri_points_t) :: tp
-    type(rt1_geometry_t) :: g
-    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), dv(3), ue(3), gu(2), qq(2)
-    real(dp) :: e1, e2, fq, uq, dq, fu, uu, hi, grad(2, 3), area, bary(3)
-    integer :: t, k
-    allocate (bnd%est_elem(mesh%ntri))
-    prule = tri_rule(rt1_matrix_degree)
-    fu = 0.0_dp
-    uu = 0.0_dp
-    hi = 0.0_dp
-    do t = 1, mesh%ntri
-      g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
-      call p1_gradients(g%xy, grad, area)
-      c = hdiv_local_coefficients(mesh, x, t)
-      ue = u(mesh%tri(:, t))
-      gu = matmul(grad, ue)
-      ! polynomial terms of degree 4: ||q - grad u~||^2, ||q||^2, and div q at the vertices
-      e1 = 0.0_dp
-      do k = 1, prule%n
-        call rt1_values(g, prule%bary(:, k), psi, dpsi)
-        qq = matmul(psi, c)
-        e1 = e1 + area * prule%w(k) * sum((qq - gu)**2)
-        hi = hi + area * prule%w(k) * sum(qq**2)
-      end do
-      do k = 1, 3
-        bary = 0.0_dp
-        bary(k) = 1.0_dp
-        call rt1_values(g, bary, psi, dpsi)
-        dv(k) = dot_product(dpsi, c)
-      end do
-      ! terms with f: div q and u~ linear, evaluated from their vertex values
-      e2 = 0.0_dp
-      tp = points(g%xy, rule, breaks)
-      do k = 1, tp%n
-        fq = f%value(tp%p(1, k), tp%p(2, k))
-        uq = dot_product(tp%bary(:, k), ue)
-        dq = dot_product(tp%bary(:, k), dv)
-        e2 = e2 + tp%w(k) * (fq + dq - uq)**2
-        hi = hi + tp%w(k) * (fq + dq)**2
-        fu = fu + tp%w(k) * fq * uq
-      end do
-      ! ||u~||_1^2 on t, exact: grad constant, mass matrix |T|/12 (1 + delta_ij)
-      uu = uu + area * (sum(gu**2) + (sum(ue**2) + sum(ue)**2) / 12.0_dp)
-      bnd%est_elem(t) = e1 + e2
-    end do
-    call boundary_term(mesh, u, x, bnd)
-    bnd%est = sum(bnd%est_elem)
-    bnd%energy_hi = hi
-    bnd%energy_lo = 2.0_dp * fu - uu
-  end subroutine dual_hdiv_bounds
-
-  !> The bounds (6.13) and (6.14) as dual_hdiv_bounds, with f entering only through its load
+  !> The bounds (6.13) and (6.14) for the nodal u~ (nnode) and the RT1 field x (hdiv_nfield),
+  !> with f entering only through its load
   !> data (dualsig_load_data): f - Pi_1 f is orthogonal to linear functions on each triangle
   !> and div q, u~ are linear there, so
   !>   ||f + div q - u~||_T^2 = osc_T^2 + ||Pi_1 f + div q - u~||_T^2,
@@ -203,7 +143,7 @@ contains
     do t = 1, mesh%ntri
       g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
       c = hdiv_local_coefficients(mesh, x, t)
-      tp = points(g%xy, rule, breaks)
+      tp = tri_points(g%xy, rule, breaks)
       do k = 1, tp%n
         p = tp%p(:, k)
         call rt1_values(g, tp%bary(:, k), psi, dpsi)
@@ -216,18 +156,4 @@ contains
     err_q = sqrt(err_q)
     err_div = sqrt(err_div)
   end subroutine dual_hdiv_errors
-
-  !> Quadrature points of the triangle xy, split along the break lines when given.
-  pure function points(xy, rule, breaks) result(tp)
-    real(dp), intent(in) :: xy(2, 3)
-    type(tri_rule_t), intent(in) :: rule
-    real(dp), intent(in), optional :: breaks(:)
-    type(tri_points_t) :: tp
-    real(dp) :: none(0)
-    if (present(breaks)) then
-      tp = tri_points(xy, rule, breaks)
-    else
-      tp = tri_points(xy, rule, none)
-    end if
-  end function points
 end module dualsig_estimate_dual_hdiv

@@ -66,7 +66,7 @@ contains
       divq = sum(grad * qe)
       e1 = 0.0_dp
       e2 = 0.0_dp
-      tp = points(xy, rule, breaks)
+      tp = tri_points(xy, rule, breaks)
       do k = 1, tp%n
         fq = f%value(tp%p(1, k), tp%p(2, k))
         uq = dot_product(tp%bary(:, k), ue)
@@ -193,7 +193,7 @@ contains
       divq = sum(grad * qe)
       e1 = 0.0_dp
       e2 = 0.0_dp
-      tp = points(xy, rule, breaks)
+      tp = tri_points(xy, rule, breaks)
       do k = 1, tp%n
         p = tp%p(:, k)
         qq = matmul(qe, tp%bary(:, k))
@@ -207,18 +207,4 @@ contains
     err_q = sqrt(err_q)
     err_div = sqrt(err_div)
   end subroutine dual_p1_errors
-
-  !> Quadrature points of the triangle xy, split along the break lines when given.
-  pure function points(xy, rule, breaks) result(tp)
-    real(dp), intent(in) :: xy(2, 3)
-    type(tri_rule_t), intent(in) :: rule
-    real(dp), intent(in), optional :: breaks(:)
-    type(tri_points_t) :: tp
-    real(dp) :: none(0)
-    if (present(breaks)) then
-      tp = tri_points(xy, rule, breaks)
-    else
-      tp = tri_points(xy, rule, none)
-    end if
-  end function points
 end module dualsig_estimate_dual_p1

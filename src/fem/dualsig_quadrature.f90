@@ -42,20 +42,23 @@ contains
   !> x = breaks(k) that cross it: the rule is applied on every piece (a piece of a triangle
   !> cut by a line is a triangle or a quadrilateral = two triangles), so an integrand that is
   !> smooth on each side of the lines (a source with a kink, and fields built from it) is
-  !> integrated to the rule's accuracy instead of the accuracy of a kink.
+  !> integrated to the rule's accuracy instead of the accuracy of a kink.  Without breaks
+  !> (absent or empty) the rule is applied on the triangle itself.
   pure function tri_points(xy, rule, breaks) result(tp)
     real(dp), intent(in) :: xy(2, 3)
     type(tri_rule_t), intent(in) :: rule
-    real(dp), intent(in) :: breaks(:)
+    real(dp), intent(in), optional :: breaks(:)
     type(tri_points_t) :: tp
     real(dp), allocatable :: pieces(:,:,:), next(:,:,:)
     real(dp) :: area, det, pa, q(2)
-    integer :: k, j, m, npiece, nnext, i
+    integer :: k, j, m, npiece, nnext, i, nbreak
     area = abs(tri_area(xy))
     allocate (pieces(2, 3, 1))
     pieces(:, :, 1) = xy
     npiece = 1
-    do k = 1, size(breaks)
+    nbreak = 0
+    if (present(breaks)) nbreak = size(breaks)
+    do k = 1, nbreak
       allocate (next(2, 3, 3 * npiece))
       nnext = 0
       do j = 1, npiece
