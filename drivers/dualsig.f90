@@ -20,7 +20,7 @@ program dualsig
   type(status_t) :: st
   integer :: n, exit_code
   real(dp) :: t_start
-  character(len=64) :: summary
+  character(len=12) :: seconds, megabytes
 
   if (command_argument_count() /= 1) then
     write (error_unit, '(a)') 'usage: dualsig FILE.nml   (see doc/user-guide.md for the namelist groups)'
@@ -32,9 +32,10 @@ program dualsig
   t_start = wall_seconds()
   call cleanup_on_signals()
   call run_namelist_file(path, st)
-  write (summary, '(a,f0.2,a,f0.1,a)') 'dualsig: total ', wall_seconds() - t_start, ' s, peak memory ', &
-    peak_memory_mb(), ' MB'
-  write (output_unit, '(a)') trim(summary)
+  write (seconds, '(f12.2)') wall_seconds() - t_start
+  write (megabytes, '(f12.1)') peak_memory_mb()
+  write (output_unit, '(a)') 'dualsig: total ' // trim(adjustl(seconds)) // ' s, peak memory ' // &
+    trim(adjustl(megabytes)) // ' MB'
   flush (output_unit)
   exit_code = 0
   if (.not. is_ok(st)) then

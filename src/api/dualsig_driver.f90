@@ -357,9 +357,8 @@ contains
     end if
     call progress_clear()
     if (seconds < progress%threshold) return
-    write (buf, '(f0.1)') seconds
-    if (buf(1:1) == '.') buf = '0' // buf(1:len(buf) - 1)
-    write (error_unit, '(a)') label // ' ' // trim(buf) // ' s'
+    write (buf, '(f16.1)') seconds
+    write (error_unit, '(a)') label // ' ' // trim(adjustl(buf)) // ' s'
     flush (error_unit)
   end subroutine driver_progress
 
