@@ -41,7 +41,7 @@ module dualsig_analysis
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
-  use dualsig_problem_dual_hdiv, only: dual_hdiv_solve
+  use dualsig_problem_dual_hdiv, only: dual_hdiv_solve, hdiv_nested_t, dual_hdiv_nested_refine, dual_hdiv_nested_free
   use dualsig_estimate_dual_hdiv, only: dual_hdiv_bounds_load, dual_hdiv_errors
   use dualsig_estimate_errors, only: p1_error_norms
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds_load, dual_p1_errors
@@ -146,7 +146,8 @@ module dualsig_analysis
     integer :: ordering = ORDERING_AMD            !! every CHOLMOD factorisation (ORDERING_* of dualsig_sparse_direct)
     logical :: dual = .true.                      !! dual analysis
     logical :: bounds = .true.                    !! with dual: the bounds from the dual field (off: the field only)
-    character(len=16) :: dual_method = 'default'  !! P1: active_set | uzawa; P2: augmented | uzawa; default: the first
+    !> P1: active_set | uzawa | nested (hdiv, from level 2 on); P2: augmented | uzawa; default: the first
+    character(len=16) :: dual_method = 'default'
     real(dp) :: dual_rho = 0.0_dp                 !! Uzawa step, 0 = automatic
     real(dp) :: dual_tol = 1.0e-10_dp             !! Uzawa tolerance, floor
     real(dp) :: dual_tol_h2 = 1.0e-4_dp           !! Uzawa tolerance: max(dual_tol, dual_tol_h2 (h/diam)^2)
@@ -231,6 +232,9 @@ module dualsig_analysis
     real(dp), allocatable :: u_start(:)     !! start of level 1 (optional)
     character(len=16) :: dual_method = ''   !! resolved dual method
     real(dp), allocatable :: est_elem(:)    !! the element indicators of the current level (marking)
+    !> dual method 'nested': the levels so far and the previous field, prolongated to this level
+    type(hdiv_nested_t) :: nest
+    real(dp) :: prolong_seconds = 0.0_dp    !! wall time of that prolongation (part of the dual's cost)
     real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
     real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
     integer :: last_ndof = 0, prev_ndof = 0 !! unknowns of the last two levels / steps
@@ -285,9 +289,10 @@ contains
     if (method == 'default') method = trim(merge('active_set', 'augmented ', problem%kind == PROBLEM_P1))
     if (settings%dual) then
       if ((problem%kind == PROBLEM_P1 .and. method == 'augmented') .or. &
-          (problem%kind /= PROBLEM_P1 .and. method == 'active_set')) then
+          (problem%kind /= PROBLEM_P1 .and. (method == 'active_set' .or. method == 'nested')) .or. &
+          (problem%kind == PROBLEM_P1 .and. method == 'nested' .and. settings%dual_space /= 'hdiv')) then
         call set_error(st, DS_ERR_INPUT, "analysis: dual method '" // method // "' does not apply to problem P" // &
-          itoa(problem%kind) // '; P1: active_set or uzawa, P2: augmented or uzawa')
+          itoa(problem%kind) // '; P1: active_set, uzawa or nested (space hdiv), P2: augmented or uzawa')
         return
       end if
     end if
@@ -339,6 +344,7 @@ contains
         allocate (u_next(finer%nnode))
         call mesh_prolongate_p1(an%mesh, finer, an%u, u_next)
       end if
+      if (allocated(an%nest%q)) call prolongate_q_hdiv(an, finer)
       call move_mesh(finer, an%mesh)
       call phase_event(an, an%level + 1, 'refine', .true., wall_seconds() - t0)
     else if (allocated(an%u_start)) then
@@ -401,6 +407,7 @@ contains
     end if
     call mesh_refine_marked(an%mesh, marked, finer, parents, st)
     if (.not. is_ok(st)) return
+    call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     allocate (u_next(finer%nnode))
     call mesh_prolongate_bisection(parents, an%u, u_next)
     call move_mesh(finer, an%mesh)
@@ -484,8 +491,20 @@ contains
   !> Release what an analysis holds.
   subroutine analysis_free(an)
     type(analysis_t), intent(inout) :: an
+    call dual_hdiv_nested_free(an%nest)
     an = analysis_t()
   end subroutine analysis_free
+
+  !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform
+  !> refinement `finer` (exact, hdiv_prolongate), the start of the next level's dual solve,
+  !> and the prolongation of its multigrid.
+  subroutine prolongate_q_hdiv(an, finer)
+    type(analysis_t), intent(inout) :: an
+    type(mesh_t), intent(in) :: finer
+    an%prolong_seconds = wall_seconds()
+    call dual_hdiv_nested_refine(an%nest, an%mesh, finer)
+    an%prolong_seconds = wall_seconds() - an%prolong_seconds
+  end subroutine prolongate_q_hdiv
 
   !> mesh_to = mesh_from (the refinement replaces the level's mesh).
   subroutine move_mesh(mesh_from, mesh_to)
@@ -735,7 +754,12 @@ contains
     res%dual_method = an%dual_method
     res%dual_space = an%settings%dual_space
     res%dual_seconds = wall_seconds()
-    if (hdiv) then
+    if (hdiv .and. an%dual_method == 'nested') then
+      ! from level 2 on, from the previous level's field (prolongated by analysis_next_level)
+      if (an%nest%ready) res%dual_seconds = res%dual_seconds - an%prolong_seconds
+      call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u, &
+                           nest=an%nest)
+    else if (hdiv) then
       call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
     else
       call dual_p1_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
