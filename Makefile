@@ -32,12 +32,13 @@ ifeq ($(origin FFLAGS),undefined)
     FFLAGS := $(OPT_FLAGS)
   endif
 endif
-LIBS ?= -lcholmod -lsuitesparseconfig -llapack -lblas
+LIBS ?= -lcholmod -lsuitesparseconfig -llapack -lblas -lz
 
-# Debian packages the project needs (build, run and test).  python3-meshio (0.4 MB with its
-# dependencies) lets test/check_vtu.py read the ParaView files with a real VTK reader.
+# Debian packages the project needs (build, run and test).  zlib1g-dev: zlib's compress2 for
+# the compressed binary .vtu files (-lz).  python3-meshio (0.4 MB with its dependencies) lets
+# test/check_vtu.py read the ParaView files with a real VTK reader.
 DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libmetis-dev python3 pkg-config \
-                   python3-meshio
+                   zlib1g-dev python3-meshio
 
 BLD  := build/$(BUILD)
 # The source tree by layer, lowest first: a module may use modules of its own layer and of
