@@ -411,6 +411,18 @@ def check_readers(files, summaries, require):
             pdn = sorted(g.GetPointData().GetArrayName(k) for k in range(g.GetPointData().GetNumberOfArrays()))
             cdn = sorted(g.GetCellData().GetArrayName(k) for k in range(g.GetCellData().GetNumberOfArrays()))
             need(pdn == s['point'] and cdn == s['cell'], f'vtk {path}: arrays {pdn} {cdn}')
+            # VTK's values (ParaView's reader) equal the decoded ones exactly
+            pts = g.GetPoints().GetData()
+            need([pts.GetComponent(i, c) for i in range(s['n']) for c in range(3)] == s['xyz'],
+                 f'vtk {path}: points differ')
+            need([g.GetCell(k).GetPointId(j) for k in range(s['t']) for j in range(3)] == s['conn'],
+                 f'vtk {path}: connectivity differs')
+            for data, arrays in ((g.GetPointData(), s['pd']), (g.GetCellData(), s['cd'])):
+                for name, vals in arrays.items():
+                    a = data.GetArray(name)
+                    nc = a.GetNumberOfComponents()
+                    got = [a.GetComponent(i, c) for i in range(a.GetNumberOfTuples()) for c in range(nc)]
+                    need(got == [float(v) for v in vals], f'vtk {path}: {name} differs')
         used.append('vtk')
     if used:
         return used

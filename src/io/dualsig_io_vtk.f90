@@ -9,7 +9,8 @@
 !>            (level vtu_zlib_level), written as base64(header) // base64(blocks) on one
 !>            line, header = [nblocks, block size, size of the last block, compressed size
 !>            of each block] as UInt64 (the layout of VTK's vtkXMLWriter, read by ParaView,
-!>            VTK and meshio).  About 2.5 to 5 times smaller than ASCII (doc/user-guide.md).
+!>            VTK and meshio).  2.9 to 3.5 times smaller than ascii and about 5 times
+!>            faster to write (measured: doc/user-guide.md, make bench-vtu).
 !>   'ascii'  the values as text, reals with 17 significant digits (exact round trip).
 !> Both hold the same values bit for bit.  Every zlib return code is checked: a failure is
 !> an error naming the file and the array, and the temporary file is removed.
@@ -68,9 +69,10 @@ module dualsig_io_vtk
   !> uncompressed bytes per zlib block (VTK's default block size: a reader inflates one
   !> block at a time)
   integer, parameter :: vtu_block_bytes = 32768
-  !> zlib compression level (1 fastest .. 9 smallest; see doc/user-guide.md for the measured
-  !> sizes and times of the levels)
-  integer, parameter :: vtu_zlib_level = 6
+  !> zlib compression level (1 fastest .. 9 smallest): the computed fields are nearly
+  !> incompressible doubles, so higher levels gain about 1 % for twice the time (measured:
+  !> doc/user-guide.md)
+  integer, parameter :: vtu_zlib_level = 1
   integer(c_int), parameter :: z_ok = 0         !! zlib: success
   character(len=*), parameter :: b64_alphabet = &
     'ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/'
