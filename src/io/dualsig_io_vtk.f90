@@ -81,6 +81,7 @@ module dualsig_io_vtk
   type :: vtu_out_t
     type(text_file_t) :: tf
     logical :: binary = .true.                   !! format="binary" (zlib) or "ascii"
+    integer :: zlib_level = vtu_zlib_level       !! zlib's compression level
     type(status_t) :: st                         !! the first encoding failure (nothing written after it)
   end type vtu_out_t
 
@@ -164,9 +165,10 @@ contains
 
   !> Write level `level` (mesh size h, nodal primal solution u) with the fields `fld` to
   !> temp_name(path), its arrays encoded as `format` (VTU_BINARY, the default, or
-  !> VTU_ASCII).  Array sizes are checked against the mesh.  On failure (a write, zlib, or
-  !> memory) nothing is left: the temporary file is removed.  The caller commits.
-  subroutine vtk_write_level(path, mesh, level, h, u, fld, st, format)
+  !> VTU_ASCII; binary with zlib level `zlib_level`, default vtu_zlib_level).  Array sizes
+  !> are checked against the mesh.  On failure (a write, zlib, or memory) nothing is left:
+  !> the temporary file is removed.  The caller commits.
+  subroutine vtk_write_level(path, mesh, level, h, u, fld, st, format, zlib_level)
     character(len=*), intent(in) :: path
     type(mesh_t), intent(in) :: mesh
     integer, intent(in) :: level
@@ -175,9 +177,11 @@ contains
     type(vtk_fields_t), intent(in) :: fld
     type(status_t), intent(out) :: st
     character(len=*), intent(in), optional :: format   !! VTU_BINARY (default) or VTU_ASCII
+    integer, intent(in), optional :: zlib_level        !! 1 (fastest) .. 9 (smallest)
     type(vtu_out_t) :: out
     logical :: bad
     out%binary = .true.
+    if (present(zlib_level)) out%zlib_level = zlib_level
     if (present(format)) then
       if (.not. vtu_format_valid(format)) then
         call set_error(st, DS_ERR_INPUT, trim(path) // ': unknown .vtu format "' // trim(format) // &
@@ -485,7 +489,7 @@ contains
     integer(i8), intent(in) :: nbytes
     character(len=:), allocatable :: text
     if (out%st%code /= 0) return
-    call encode_binary(src, nbytes, vtu_zlib_level, text, out%st)
+    call encode_binary(src, nbytes, out%zlib_level, text, out%st)
     if (out%st%code /= 0) then
       out%st%msg = 'array ' // name // ': ' // out%st%msg
       return
