@@ -30,7 +30,7 @@ for case in plate square; do
     if [ $fmt = none ]; then vtk=.false.; f=binary; fi
     if [ $case = plate ]; then
       sed -e "s#output = 'out/p2_plate_hole_gmsh'#output = '$work/${case}_$fmt', vtk = $vtk, vtu_format = '$f'#" \
-          -e "s/levels = 3/levels = 4/" -e "s#file = 'data/#file = '$PWD/data/#" data/p2_plate_hole_gmsh.nml > "$nml"
+          -e "s/levels = 3/levels = 4/" -e "s#file = '\(data/\)\?#file = '$PWD/data/#" data/p2_plate_hole_gmsh.nml > "$nml"
       last=04
     else
       printf "&run scene = 'p2_contact', output = '%s', vtk = %s, vtu_format = '%s' /\n&mesh levels = 8 /\n" \

@@ -54,6 +54,7 @@ module dualsig_analysis
   public :: analysis_start, analysis_next_level, analysis_free
   public :: load_degree, exact_degree, bound_degree_p1, bound_degree_p2, max_level_warnings
   public :: dual_spaces
+  public :: analysis_progress
   public :: adapt_settings_t, analysis_next_step, analysis_adapt_stop, adapt_stop_text, certified_rel_error
   public :: ADAPT_GOING, ADAPT_STOP_TOL, ADAPT_STOP_NDOF, ADAPT_STOP_SECONDS, ADAPT_STOP_STEPS, adapt_max_steps
 
@@ -95,6 +96,23 @@ module dualsig_analysis
     real(dp) :: max_seconds = 0.0_dp    !! stop before a step predicted to end later; 0 = no limit
     integer :: max_steps = adapt_max_steps !! at most this many steps (<= adapt_max_steps)
   end type adapt_settings_t
+
+  !> The progress callback of the pipeline (analysis_settings_t%progress), for a front end
+  !> that reports long phases (the library itself never prints): called when a phase of
+  !> level (or adaptive step) `level` starts (finished = .false., seconds = 0) and when it
+  !> ends (finished = .true., seconds = its wall time).  The phases, in order: 'refine'
+  !> (from level 2 on: refinement and transfer of u_h), 'assemble' (geometry checks,
+  !> matrices, constraints), 'primal solve', 'dual analysis' (dual solve and bounds).  A
+  !> phase that fails gets no end call.
+  abstract interface
+    subroutine analysis_progress(level, phase, finished, seconds)
+      import :: dp
+      integer, intent(in) :: level
+      character(len=*), intent(in) :: phase
+      logical, intent(in) :: finished
+      real(dp), intent(in) :: seconds
+    end subroutine analysis_progress
+  end interface
 
   !> What is solved: the problem, its coarse mesh, boundary parts and data.
   type :: analysis_problem_t
@@ -144,6 +162,8 @@ module dualsig_analysis
     real(dp) :: admissible_defect = 1.0e-10_dp
     logical :: keep_fields = .false.              !! return the dual field in the level result
     type(adapt_settings_t) :: adapt               !! the adaptive loop (analysis_next_step)
+    !> called at the start and end of each phase of a level (analysis_progress); none by default
+    procedure(analysis_progress), pointer, nopass :: progress => null()
   end type analysis_settings_t
 
   !> What one level produced.  Columns not computed keep their defaults (has_* false).
@@ -312,6 +332,7 @@ contains
     real(dp) :: t0
     t0 = wall_seconds()
     if (an%level > 0) then
+      call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
       call mesh_refine_uniform(an%mesh, finer, st)
       if (.not. is_ok(st)) return
       if (an%settings%nested) then
@@ -319,6 +340,7 @@ contains
         call mesh_prolongate_p1(an%mesh, finer, an%u, u_next)
       end if
       call move_mesh(finer, an%mesh)
+      call phase_event(an, an%level + 1, 'refine', .true., wall_seconds() - t0)
     else if (allocated(an%u_start)) then
       u_next = an%u_start
     end if
@@ -360,6 +382,7 @@ contains
         'indicators of the previous step (dual analysis with bounds)')
       return
     end if
+    call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
     ! Doerfler's criterion among the triangles that can still be bisected in double precision
     eta2 = an%est_elem
     floor = adapt_area_floor * geom_rel_tol * mesh_diameter(an%mesh)**2
@@ -386,6 +409,7 @@ contains
     res%level = an%level
     res%max_depth = maxval(an%mesh%tri_gen)
     res%refine_seconds = wall_seconds() - t0
+    call phase_event(an, an%level, 'refine', .true., res%refine_seconds)
     call solve_level(an, res, st)
     call finish_level(an, res, t0)
   end subroutine analysis_next_step
@@ -478,9 +502,12 @@ contains
     type(level_result_t), intent(inout) :: res
     type(status_t), intent(out) :: st
     type(primal_system_t) :: sys
+    real(dp) :: t0
     associate (mesh => an%mesh, pb => an%problem)
       res%nnode = mesh%nnode
       res%ntri = mesh%ntri
+      t0 = wall_seconds()
+      call phase_event(an, an%level, 'assemble', .false., 0.0_dp)
       ! no solve on a folded, doubled or broken mesh: the bounds assume triangles tiling the domain once
       call mesh_check_geometry(mesh, st)
       if (.not. is_ok(st)) then
@@ -500,13 +527,17 @@ contains
                               every_loop_gamma_u=an%settings%dual .and. pb%kind /= PROBLEM_P1)
       if (.not. is_ok(st)) return
       res%ndof = count(sys%kind /= BOUND_FIXED)
+      call phase_event(an, an%level, 'assemble', .true., wall_seconds() - t0)
+      call phase_event(an, an%level, 'primal solve', .false., 0.0_dp)
       call solve_primal(an, sys, res, st)
       if (.not. is_ok(st)) return
+      call phase_event(an, an%level, 'primal solve', .true., res%primal_seconds)
       res%u = an%u
       call move_alloc(sys%kind, res%bound_kind)
       call move_alloc(sys%bnd, res%bound)
       if (allocated(pb%u_exact)) call primal_errors(an, res)
       if (an%settings%dual) then
+        call phase_event(an, an%level, 'dual analysis', .false., 0.0_dp)
         res%estimate_seconds = wall_seconds()
         if (pb%kind == PROBLEM_P1) then
           call dual_level_p1(an, res, st)
@@ -514,10 +545,21 @@ contains
           call dual_level_p2(an, res, st)
         end if
         res%estimate_seconds = wall_seconds() - res%estimate_seconds
+        if (is_ok(st)) call phase_event(an, an%level, 'dual analysis', .true., res%estimate_seconds)
       end if
       if (is_ok(st)) call check_finite_results(an%level, res, st)
     end associate
   end subroutine solve_level
+
+  !> Report the start or the end of a phase to the settings' progress callback, if any.
+  subroutine phase_event(an, level, phase, finished, seconds)
+    type(analysis_t), intent(in) :: an
+    integer, intent(in) :: level
+    character(len=*), intent(in) :: phase
+    logical, intent(in) :: finished
+    real(dp), intent(in) :: seconds
+    if (associated(an%settings%progress)) call an%settings%progress(level, phase, finished, seconds)
+  end subroutine phase_event
 
   !> A level's solution and bounds must be finite: f may be NaN between the points where it
   !> was checked, or so large that the energies overflow.  DS_ERR_NUMERIC otherwise.
