@@ -4,7 +4,7 @@
 #   make run        install missing Debian packages, build, run data/default.nml
 #   make check      install missing Debian packages, build the debug library, run the test suite
 #   make check-asan the same suite under Address/UndefinedBehavior/LeakSanitizer
-#   make bench      benchmarks (see doc/performance.md)
+#   make bench      benchmarks (see doc/performance.md); make bench-vtu: .vtu sizes, ascii vs binary
 #   make plots      plots under out/ (make plots CSV=out/run.csv: one's own run); make doc-figures
 #   make stress     the numerical stability stress suite (see doc/stress.md)
 #   make BUILD=debug        the checked build (-fcheck=all, FPE traps) into build/debug
@@ -33,12 +33,13 @@ ifeq ($(origin FFLAGS),undefined)
     FFLAGS := $(OPT_FLAGS)
   endif
 endif
-LIBS ?= -lcholmod -lsuitesparseconfig -llapack -lblas
+LIBS ?= -lcholmod -lsuitesparseconfig -llapack -lblas -lz
 
-# Debian packages the project needs (build, run and test).  python3-meshio (0.4 MB with its
-# dependencies) lets test/check_vtu.py read the ParaView files with a real VTK reader.
+# Debian packages the project needs (build, run and test).  zlib1g-dev: zlib's compress2 for
+# the compressed binary .vtu files (-lz).  python3-meshio (0.4 MB with its dependencies) lets
+# test/check_vtu.py read the ParaView files with a real VTK reader.
 DEBIAN_PACKAGES := gfortran make liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libmetis-dev python3 pkg-config \
-                   python3-meshio
+                   zlib1g-dev python3-meshio
 
 BLD  := build/$(BUILD)
 # The source tree by layer, lowest first: a module may use modules of its own layer and of
@@ -75,7 +76,7 @@ SUPPORT_MODDIR := $(call support_mod,$(BUILD))
 SUPPORT_OBJS   := $(patsubst %.f90,$(BLD)/support/%.o,$(notdir $(SUPPORT_SRCS)))
 # (test/pfunit.mk links build/debug/libdualsig_support.a and reads build/debug/support-mod)
 
-.PHONY: all lib support run check check-lite check-asan check-layers deps bench bench-quick bench-plots bench-peers bench-deps plots stress clean distclean
+.PHONY: all lib support run check check-lite check-asan check-layers deps bench bench-quick bench-vtu bench-plots bench-peers bench-deps plots stress clean distclean
 all: $(LIBRARY) $(DRIVER) $(SUPPORT_LIB)
 lib: $(LIBRARY)
 support: $(SUPPORT_LIB)
@@ -221,6 +222,16 @@ bench-quick: bench-deps
 	@$(MAKE) all
 	@$(MAKE) -s bin/dualsig_bench
 	@./bin/dualsig_bench primal dual_p1 dual_p2
+
+# make bench-vtu   size and write time of the ParaView files, ascii against binary (about a
+#                  minute; bench/vtu_sizes.sh, figures in doc/user-guide.md)
+bench-vtu: deps
+	@$(MAKE) all
+	@$(MAKE) -s bin/dualsig_vtu_bench
+	@bench/vtu_sizes.sh
+
+bin/dualsig_vtu_bench: bench/vtu_write.f90 $(LIBRARY) | bin
+	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
 
 bench-plots:
 	@if command -v gnuplot >/dev/null; then gnuplot bench/work_precision.gp && \

@@ -3,9 +3,18 @@
 
 Usage:
   python3 test/check_vtu.py --pvd OUT.pvd --csv OUT.csv --problem p1|p2 [--exact] [--dual]
-                            [--transition X] [--require-reader]
+                            [--transition X] [--require-reader] [--format binary|ascii]
+                            [--same-as OTHER.pvd]
+  python3 test/check_vtu.py --dump FILE.vtu
+  python3 test/check_vtu.py --compare FILE.vtu OTHER.vtu
 
-Parses OUT.pvd and every .vtu it lists with the standard library (xml.etree) and checks:
+Parses OUT.pvd and every .vtu it lists with the standard library (xml.etree; binary
+arrays decoded with base64, zlib and struct) and checks:
+  - the encoding: format="ascii" arrays, or format="binary" arrays of a file with
+    header_type UInt32/UInt64, byte_order and (optionally) compressor="vtkZLibDataCompressor":
+    the compression header [nblocks, block size, last block size, compressed sizes] must
+    match the data (every block inflates to its stated size); --format requires one of the
+    two for every array;
   - the collection: one DataSet per CSV row, timestep = level = 1, 2, ..., files present;
   - the grid: NumberOfPoints/NumberOfCells against the arrays, VTK_TRIANGLE cells with
     0-based vertex numbers, offsets 3, 6, ..., counter-clockwise triangles, z = 0, every
@@ -24,17 +33,29 @@ Parses OUT.pvd and every .vtu it lists with the standard library (xml.etree) and
     (H(div) field) and >= 0 on Signorini edges.
 If the python modules meshio or vtk can be imported (here or by the Debian interpreter
 /usr/bin/python3, where python3-meshio installs), every file is also read with them and
-compared with the xml.etree values.  --require-reader makes the absence of both an error.
+compared with the xml.etree values: meshio's points, cells, point data and cell data must
+equal them exactly.  --require-reader makes the absence of both an error.
+--same-as OTHER.pvd: every level file must hold the same arrays (names, types, components)
+with the same values, bit for bit, as the level file of the same level of OTHER.pvd (e.g.
+the ascii and the binary output of one run).
+--dump FILE.vtu: print every array of one file, decoded: a line
+"ARRAY <section> <name> <type> <components> <count>", then one value per line (reals in
+Python's repr, which reads back to the same double); no checks.
+--compare FILE.vtu OTHER.vtu: the two files hold the same arrays with the same values, bit
+for bit (as --same-as, for two single files).
 
 Exit status 0 when every check passes, 1 otherwise (messages on stdout).
 """
 
 import argparse
+import base64
 import csv
 import math
 import os
+import struct
 import subprocess
 import sys
+import zlib
 import xml.etree.ElementTree as ET
 
 CONTACT_CODES = {-1, 0, 1, 2}   # interior, separated, contact, Dirichlet
@@ -53,20 +74,86 @@ def need(cond, msg):
         raise CheckError(msg)
 
 
-def parse_array(da, where):
-    """Values of an ASCII DataArray as a list of floats (ints for integer types)."""
-    need(da.get('format', 'ascii') == 'ascii', f'{where}: format {da.get("format")} (expected ascii)')
+STRUCT_CODES = {'Float64': 'd', 'Float32': 'f', 'Int8': 'b', 'UInt8': 'B', 'Int16': 'h', 'UInt16': 'H',
+                'Int32': 'i', 'UInt32': 'I', 'Int64': 'q', 'UInt64': 'Q'}
+
+
+def b64_chars(nbytes):
+    """Characters of the padded base64 encoding of nbytes bytes."""
+    return 4 * ((nbytes + 2) // 3)
+
+
+def decode_binary(text, typ, enc, where):
+    """The raw bytes of a format="binary" DataArray of a file with the encoding `enc`
+    (byte_order, header_type, compressor of <VTKFile>)."""
+    text = ''.join(text.split())
+    hcode = {'UInt32': 'I', 'UInt64': 'Q'}.get(enc['header_type'])
+    need(hcode is not None, f'{where}: header_type {enc["header_type"]} (expected UInt32 or UInt64)')
+    bo = {'LittleEndian': '<', 'BigEndian': '>'}.get(enc['byte_order'])
+    need(bo is not None, f'{where}: byte_order {enc["byte_order"]}')
+    hsize = struct.calcsize(hcode)
+    try:
+        if enc['compressor'] is None:     # base64 of [byte count][data]
+            raw = base64.b64decode(text, validate=True)
+            need(len(raw) >= hsize, f'{where}: binary data shorter than its header')
+            nbytes = struct.unpack(bo + hcode, raw[:hsize])[0]
+            need(len(raw) - hsize >= nbytes, f'{where}: header says {nbytes} bytes, {len(raw) - hsize} present')
+            return raw[hsize:hsize + nbytes]
+        need(enc['compressor'] == 'vtkZLibDataCompressor', f'{where}: compressor {enc["compressor"]}')
+        # the header and the blocks are base64-encoded separately
+        first = base64.b64decode(text[:b64_chars(hsize)], validate=True)
+        nblocks = struct.unpack(bo + hcode, first[:hsize])[0]
+        hchars = b64_chars((3 + nblocks) * hsize)
+        header = struct.unpack(bo + hcode * (3 + nblocks), base64.b64decode(text[:hchars], validate=True)
+                               [:(3 + nblocks) * hsize])
+        data = base64.b64decode(text[hchars:], validate=True)
+    except (ValueError, struct.error) as e:   # binascii.Error is a ValueError
+        raise CheckError(f'{where}: bad base64 or header: {e}')
+    block, last, csizes = header[1], header[2], header[3:]
+    need(sum(csizes) == len(data), f'{where}: compressed sizes sum to {sum(csizes)}, {len(data)} bytes present')
+    out, pos = [], 0
+    for k, c in enumerate(csizes):
+        try:
+            chunk = zlib.decompress(data[pos:pos + c])
+        except zlib.error as e:
+            raise CheckError(f'{where}: block {k + 1} of {nblocks} does not inflate: {e}')
+        want = last if (k == nblocks - 1 and last != 0) else block
+        need(len(chunk) == want, f'{where}: block {k + 1} inflates to {len(chunk)} bytes, header says {want}')
+        out.append(chunk)
+        pos += c
+    return b''.join(out)
+
+
+def parse_array(da, where, enc):
+    """Values of a DataArray as a list of floats (ints for integer types), ascii or binary."""
+    fmt = da.get('format', 'ascii')
+    need(fmt in ('ascii', 'binary'), f'{where}: format {fmt} (expected ascii or binary)')
+    need(enc['want'] is None or fmt == enc['want'], f'{where}: format {fmt} (expected {enc["want"]})')
     typ = da.get('type')
-    text = (da.text or '').split()
-    if typ.startswith('Int') or typ.startswith('UInt'):
-        return [int(t) for t in text]
-    need(typ in ('Float64', 'Float32'), f'{where}: unexpected type {typ}')
-    vals = [float(t) for t in text]
-    need(all(math.isfinite(v) for v in vals), f'{where}: non-finite value')
+    need(typ in STRUCT_CODES, f'{where}: unexpected type {typ}')
+    if fmt == 'binary':
+        raw = decode_binary(da.text or '', typ, enc, where)
+        size = struct.calcsize(STRUCT_CODES[typ])
+        need(len(raw) % size == 0, f'{where}: {len(raw)} bytes are not a whole number of {typ}')
+        bo = '<' if enc['byte_order'] == 'LittleEndian' else '>'
+        vals = list(struct.unpack(f'{bo}{len(raw) // size}{STRUCT_CODES[typ]}', raw))
+    elif typ.startswith('Int') or typ.startswith('UInt'):
+        vals = [int(t) for t in (da.text or '').split()]
+    else:
+        vals = [float(t) for t in (da.text or '').split()]
+    if typ.startswith('Float'):
+        vals = [float(v) for v in vals]
+        need(all(math.isfinite(v) for v in vals), f'{where}: non-finite value')
     return vals
 
 
-def arrays_of(node, where):
+def encoding_of(root, want=None):
+    """The attributes of <VTKFile> that say how binary arrays are stored."""
+    return {'byte_order': root.get('byte_order', 'LittleEndian'), 'header_type': root.get('header_type', 'UInt32'),
+            'compressor': root.get('compressor'), 'want': want}
+
+
+def arrays_of(node, where, enc):
     out = {}
     if node is None:
         return out
@@ -74,8 +161,51 @@ def arrays_of(node, where):
         name = da.get('Name')
         need(name is not None, f'{where}: DataArray without Name')
         need(name not in out, f'{where}: duplicate array {name}')
-        out[name] = (da, parse_array(da, f'{where}/{name}'))
+        out[name] = (da, parse_array(da, f'{where}/{name}', enc))
     return out
+
+
+SECTIONS = ('FieldData', 'PointData', 'CellData', 'Points', 'Cells')
+
+
+def all_arrays(path, want=None):
+    """{(section, name): (type, components, values)} of every array of the file `path`."""
+    root = ET.parse(path).getroot()
+    enc = encoding_of(root, want)
+    grid = root.find('UnstructuredGrid')
+    need(grid is not None, f'{path}: not an UnstructuredGrid')
+    piece = grid.find('Piece')
+    out = {}
+    for sec in SECTIONS:
+        node = grid.find(sec) if sec == 'FieldData' else (piece.find(sec) if piece is not None else None)
+        for name, (da, vals) in arrays_of(node, f'{path}:{sec}', enc).items():
+            out[(sec, name)] = (da.get('type'), ncomp(da), vals)
+    return out
+
+
+def same_arrays(path, other):
+    """Every array of `path` equals the one of `other` bit for bit (names, types, sizes)."""
+    a, b = all_arrays(path), all_arrays(other)
+    need(sorted(a) == sorted(b), f'{path}: arrays {sorted(a)} differ from those of {other}: {sorted(b)}')
+    for key in sorted(a):
+        (ta, ca, va), (tb, cb, vb) = a[key], b[key]
+        need(ta == tb and ca == cb, f'{path}: {key[0]}/{key[1]} is {ta} x {ca} but {tb} x {cb} in {other}')
+        need(len(va) == len(vb), f'{path}: {key[0]}/{key[1]} has {len(va)} values, {len(vb)} in {other}')
+        if ta.startswith('Float'):
+            diff = [k for k in range(len(va)) if struct.pack('<d', va[k]) != struct.pack('<d', vb[k])]
+        else:
+            diff = [k for k in range(len(va)) if va[k] != vb[k]]
+        need(not diff, f'{path}: {key[0]}/{key[1]}: {len(diff)} values differ from {other}, first at index '
+             f'{diff[0] if diff else 0}: {va[diff[0]] if diff else 0!r} != {vb[diff[0]] if diff else 0!r}')
+    return len(a)
+
+
+def dump(path):
+    """Print every array of `path` (see --dump)."""
+    for (sec, name), (typ, comps, vals) in all_arrays(path).items():
+        print(f'ARRAY {sec} {name} {typ} {comps} {len(vals)}')
+        for v in vals:
+            print(repr(v))
 
 
 def ncomp(da):
@@ -93,6 +223,7 @@ def check_vtu(path, level, row, args):
     """All xml.etree checks of one level file; returns a summary for the reader comparison."""
     root = ET.parse(path).getroot()
     need(root.tag == 'VTKFile' and root.get('type') == 'UnstructuredGrid', f'{path}: not an UnstructuredGrid')
+    enc = encoding_of(root, args.format)
     grid = root.find('UnstructuredGrid')
     pieces = grid.findall('Piece')
     need(len(pieces) == 1, f'{path}: {len(pieces)} pieces')
@@ -100,11 +231,11 @@ def check_vtu(path, level, row, args):
     n = int(piece.get('NumberOfPoints'))
     t = int(piece.get('NumberOfCells'))
     need(n > 0 and t > 0, f'{path}: empty grid')
-    fd = arrays_of(grid.find('FieldData'), f'{path}:FieldData')
-    pd = arrays_of(piece.find('PointData'), f'{path}:PointData')
-    cd = arrays_of(piece.find('CellData'), f'{path}:CellData')
-    pts = arrays_of(piece.find('Points'), f'{path}:Points')
-    cells = arrays_of(piece.find('Cells'), f'{path}:Cells')
+    fd = arrays_of(grid.find('FieldData'), f'{path}:FieldData', enc)
+    pd = arrays_of(piece.find('PointData'), f'{path}:PointData', enc)
+    cd = arrays_of(piece.find('CellData'), f'{path}:CellData', enc)
+    pts = arrays_of(piece.find('Points'), f'{path}:Points', enc)
+    cells = arrays_of(piece.find('Cells'), f'{path}:Cells', enc)
 
     # ---- geometry and topology
     need(len(pts) == 1, f'{path}: Points must hold one array')
@@ -235,7 +366,8 @@ def check_vtu(path, level, row, args):
             need('q_h' not in pd, f'{path}: q_h written beside lambda_h')
     else:
         need('est_element' not in cd, f'{path}: est_element without a dual analysis')
-    return {'n': n, 't': t, 'u_h': u, 'point': sorted(pd), 'cell': sorted(cd)}
+    return {'n': n, 't': t, 'u_h': u, 'point': sorted(pd), 'cell': sorted(cd), 'xyz': p, 'conn': conn,
+            'pd': {k: v[1] for k, v in pd.items()}, 'cd': {k: v[1] for k, v in cd.items()}}
 
 
 def check_readers(files, summaries, require):
@@ -260,8 +392,13 @@ def check_readers(files, summaries, require):
                  f'meshio {path}: cells')
             need(sorted(m.point_data) == s['point'], f'meshio {path}: point data {sorted(m.point_data)}')
             need(sorted(m.cell_data) == s['cell'], f'meshio {path}: cell data {sorted(m.cell_data)}')
-            need(all(abs(a - b) <= REL_TOL * max(1.0, abs(b)) for a, b in zip(m.point_data['u_h'], s['u_h'])),
-                 f'meshio {path}: u_h differs')
+            # meshio's values equal the xml.etree ones exactly (ascii: 17 digits read back)
+            need(m.points.ravel().tolist() == s['xyz'], f'meshio {path}: points differ')
+            need(m.cells[0].data.ravel().tolist() == s['conn'], f'meshio {path}: connectivity differs')
+            for name, vals in s['pd'].items():
+                need(m.point_data[name].ravel().tolist() == vals, f'meshio {path}: point data {name} differs')
+            for name, vals in s['cd'].items():
+                need(m.cell_data[name][0].ravel().tolist() == vals, f'meshio {path}: cell data {name} differs')
         used.append('meshio')
     if have_vtk:
         import vtk
@@ -274,6 +411,18 @@ def check_readers(files, summaries, require):
             pdn = sorted(g.GetPointData().GetArrayName(k) for k in range(g.GetPointData().GetNumberOfArrays()))
             cdn = sorted(g.GetCellData().GetArrayName(k) for k in range(g.GetCellData().GetNumberOfArrays()))
             need(pdn == s['point'] and cdn == s['cell'], f'vtk {path}: arrays {pdn} {cdn}')
+            # VTK's values (ParaView's reader) equal the decoded ones exactly
+            pts = g.GetPoints().GetData()
+            need([pts.GetComponent(i, c) for i in range(s['n']) for c in range(3)] == s['xyz'],
+                 f'vtk {path}: points differ')
+            need([g.GetCell(k).GetPointId(j) for k in range(s['t']) for j in range(3)] == s['conn'],
+                 f'vtk {path}: connectivity differs')
+            for data, arrays in ((g.GetPointData(), s['pd']), (g.GetCellData(), s['cd'])):
+                for name, vals in arrays.items():
+                    a = data.GetArray(name)
+                    nc = a.GetNumberOfComponents()
+                    got = [a.GetComponent(i, c) for i in range(a.GetNumberOfTuples()) for c in range(nc)]
+                    need(got == [float(v) for v in vals], f'vtk {path}: {name} differs')
         used.append('vtk')
     if used:
         return used
@@ -288,10 +437,23 @@ def check_readers(files, summaries, require):
 
 
 def main():
+    if (len(sys.argv) == 3 and sys.argv[1] == '--dump') or (len(sys.argv) == 4 and sys.argv[1] == '--compare'):
+        try:
+            if sys.argv[1] == '--dump':
+                dump(sys.argv[2])
+            else:
+                n = same_arrays(sys.argv[2], sys.argv[3])
+                print(f'check_vtu: {sys.argv[2]}: {n} arrays equal bit for bit to those of {sys.argv[3]}')
+            return 0
+        except (CheckError, KeyError, ValueError, ET.ParseError, OSError) as e:
+            print(f'check_vtu: FAILED: {type(e).__name__}: {e}')
+            return 1
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--pvd', required=True)
     ap.add_argument('--csv', required=True)
     ap.add_argument('--problem', choices=('p1', 'p2'), required=True)
+    ap.add_argument('--format', choices=('ascii', 'binary'))
+    ap.add_argument('--same-as')
     ap.add_argument('--exact', action='store_true')
     ap.add_argument('--dual', action='store_true')
     ap.add_argument('--transition', type=float)
@@ -314,12 +476,20 @@ def main():
             need(os.path.isfile(path), f'{args.pvd}: {f} does not exist')
             summaries.append(check_vtu(path, level, row, args))
             files.append(path)
+        same = ''
+        if args.same_as:
+            other = ET.parse(args.same_as).getroot().find('Collection').findall('DataSet')
+            need(len(other) == len(ds), f'{args.same_as}: {len(other)} data sets, {len(ds)} in {args.pvd}')
+            narr = 0
+            for path, d in zip(files, other):
+                narr += same_arrays(path, os.path.join(os.path.dirname(os.path.abspath(args.same_as)), d.get('file')))
+            same = f'; {narr} arrays equal bit for bit to those of {args.same_as}'
         used = check_readers(files, summaries, args.require_reader)
         if used == ['delegate']:
             r = subprocess.run([DEBIAN_PYTHON] + sys.argv)
             return r.returncode
         print(f'check_vtu: {args.pvd}: {len(files)} level(s) OK; readers: ' +
-              (', '.join(used) if used else 'xml.etree only (meshio and vtk not importable)'))
+              (', '.join(used) if used else 'xml.etree only (meshio and vtk not importable)') + same)
         return 0
     except (CheckError, KeyError, ValueError, ET.ParseError, OSError) as e:
         print(f'check_vtu: FAILED: {type(e).__name__}: {e}')

@@ -873,7 +873,8 @@ contains
       vfields%est = res%est
       vfields%has_est = .true.
     end if
-    call vtk_write_level(vtk_level_path(run%cfg%output, res%level), mesh, res%level, res%h, res%u, vfields, st)
+    call vtk_write_level(vtk_level_path(run%cfg%output, res%level), mesh, res%level, res%h, res%u, vfields, st, &
+                         run%cfg%vtu_format)
   end subroutine vtk_level
 
   !> The header of the error table: what was solved, what ran, the bounds' meaning, the

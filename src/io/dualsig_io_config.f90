@@ -47,7 +47,7 @@ module dualsig_io_config
   integer, parameter :: marker_name_len = 64    !! longest physical-group name in gamma_u/a_names
 
   character(len=*), parameter :: run_items = &
-    'title scene output gamma_u_markers gamma_a_markers vtk latex gamma_u_names gamma_a_names max_memory_gb'
+    'title scene output gamma_u_markers gamma_a_markers vtk vtu_format latex gamma_u_names gamma_a_names max_memory_gb'
   character(len=*), parameter :: mesh_items = &
     'source file x0 x1 y0 y1 nx ny n pattern levels format'
   character(len=*), parameter :: solver_items = &
@@ -75,6 +75,7 @@ module dualsig_io_config
     character(len=marker_name_len) :: gamma_u_names(max_markers) = ''
     character(len=marker_name_len) :: gamma_a_names(max_markers) = ''
     logical :: vtk = .false.                       !! write <output>_levelLL.vtu and <output>.pvd
+    character(len=16) :: vtu_format = 'binary'     !! encoding of the .vtu arrays: 'binary' (zlib) or 'ascii'
     logical :: latex = .false.                     !! write the error table also as <output>.tex
     !> memory a level may need (GB, estimated from its mesh before it starts); 0 = the
     !> machine's available memory (MemAvailable of /proc/meminfo)
@@ -307,6 +308,7 @@ contains
     fixed(1) = trim(fixed(1)) // ', output = ''' // trim(cfg%output) // ''', gamma_u_markers = ' // &
       ilist(cfg%gamma_u_markers) // ', gamma_a_markers = ' // ilist(cfg%gamma_a_markers) // ', vtk = ' // &
       ltoa(cfg%vtk) // ', latex = ' // ltoa(cfg%latex)
+    if (cfg%vtk) fixed(1) = trim(fixed(1)) // ', vtu_format = ''' // trim(cfg%vtu_format) // ''''
     ! (given only: the default, the available memory, depends on the machine)
     if (cfg%max_memory_gb > 0.0_dp) fixed(1) = trim(fixed(1)) // ', max_memory_gb = ' // rtoa(cfg%max_memory_gb)
     n = 1
@@ -772,6 +774,7 @@ contains
     character(len=wide) :: output
     integer :: gamma_u_markers(max_markers), gamma_a_markers(max_markers)
     logical :: vtk, latex
+    character(len=wide) :: vtu_format
     character(len=wide) :: gamma_u_names(max_markers), gamma_a_names(max_markers)
     real(dp) :: max_memory_gb
     ! &mesh
@@ -784,8 +787,8 @@ contains
     real(dp) :: omega, tol
     logical :: omega_auto, nested
     integer :: max_iter, check_every
-    namelist /run/ title, scene, output, gamma_u_markers, gamma_a_markers, vtk, latex, gamma_u_names, gamma_a_names, &
-                   max_memory_gb
+    namelist /run/ title, scene, output, gamma_u_markers, gamma_a_markers, vtk, vtu_format, latex, gamma_u_names, &
+                   gamma_a_names, max_memory_gb
     namelist /mesh/ source, file, format, x0, x1, y0, y1, nx, ny, n, pattern, levels
     namelist /solver/ method, omega, omega_auto, tol, max_iter, check_every, nested
     integer :: k
@@ -817,6 +820,7 @@ contains
       gamma_u_markers = cfg%gamma_u_markers
       gamma_a_markers = cfg%gamma_a_markers
       vtk = cfg%vtk
+      vtu_format = cfg%vtu_format
       latex = cfg%latex
       gamma_u_names = cfg%gamma_u_names
       gamma_a_names = cfg%gamma_a_names
@@ -829,7 +833,8 @@ contains
         call bad_value('a finite real number', ios, msg)
         return
       end if
-      if (too_long(title, cfg%title) .or. too_long(scene, cfg%scene) .or. too_long(output, cfg%output)) then
+      if (too_long(title, cfg%title) .or. too_long(scene, cfg%scene) .or. too_long(output, cfg%output) .or. &
+          too_long(vtu_format, cfg%vtu_format)) then
         call bad_value('a shorter string', ios, msg)
         return
       end if
@@ -849,6 +854,7 @@ contains
       cfg%gamma_u_markers = gamma_u_markers
       cfg%gamma_a_markers = gamma_a_markers
       cfg%vtk = vtk
+      cfg%vtu_format = vtu_format(1:len(cfg%vtu_format))
       cfg%latex = latex
       cfg%max_memory_gb = max_memory_gb
     case ('mesh')
@@ -1175,6 +1181,9 @@ contains
     else if (cfg%output(len_trim(cfg%output):len_trim(cfg%output)) == '/' .or. names_directory(cfg%output)) then
       call set_error(st, DS_ERR_INPUT, where // '&run output = ''' // trim(cfg%output) // &
         ''' names a directory; expected a path of the table files without extension, e.g. ''out/run1''')
+    else if (.not. any(cfg%vtu_format == [character(len=16) :: 'binary', 'ascii'])) then
+      call set_error(st, DS_ERR_INPUT, where // '&run vtu_format = ''' // trim(cfg%vtu_format) // &
+        '''; expected ''binary'' (zlib-compressed arrays, the default) or ''ascii'' (arrays as text)')
     else if (cfg%max_memory_gb < 0.0_dp) then
       call set_error(st, DS_ERR_INPUT, where // '&run max_memory_gb = ' // rtoa(cfg%max_memory_gb) // &
         '; expected >= 0 (0: the available memory of the machine)')
@@ -1295,7 +1304,7 @@ contains
     character(len=:), allocatable :: s
     select case (trim(name))
     case ('title', 'scene', 'output', 'source', 'file', 'pattern', 'method', 'ordering', 'inner', 'particular', &
-          'kind', 'f', 'u_exact', 'f_file')
+          'kind', 'f', 'u_exact', 'f_file', 'vtu_format')
       s = 'a quoted string'
     case ('breaks')
       s = 'a list of at most ' // itoa(max_breaks) // ' real numbers'
