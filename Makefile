@@ -171,10 +171,13 @@ endif
 
 # The layering of src/ (no module uses one of a later layer, every module file lies in a
 # layer folder and is named like its module) and the size rule (no procedure of src/ over
-# MAX_PROCEDURE_LINES lines).  Run by CI through make check.
+# MAX_PROCEDURE_LINES lines), and that every allocation of src/ checks its status
+# (tools/check_alloc.py: stat= and alloc_failed, or a '! small:' comment).  Run by CI
+# through make check.
 MAX_PROCEDURE_LINES := 200
 check-layers:
 	@python3 tools/check_layers.py --max-lines $(MAX_PROCEDURE_LINES) src $(LAYERS)
+	@python3 tools/check_alloc.py src
 
 # The fallback runner: test/pfunit_lite.py translates the .pf subset into Fortran.
 # Every run of a suite gets a scratch TMPDIR of its own (tests write their files there), so

@@ -369,7 +369,8 @@ contains
         res%nheld = res%nheld + 1
       end if
     end do
-    call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked)
+    call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked, st)
+    if (.not. is_ok(st)) return
     if (res%nmarked == 0) then
       call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ': no triangle to ' // &
         'mark (every indicator is zero, or ' // itoa(res%nheld) // ' triangle(s) with positive ones are at the ' // &

@@ -26,6 +26,8 @@ module dualsig_assembly_dual_hdiv
   use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside
+  use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -102,25 +104,31 @@ contains
   end function hdiv_local_coefficients
 
   !> Assemble the condensed system: element matrices (exact) and vectors (f with `rule`),
-  !> interior unknowns eliminated per triangle.
-  subroutine assemble_dual_hdiv(mesh, f, rule, sys)
+  !> interior unknowns eliminated per triangle.  Out of memory: DS_ERR_MEMORY in st
+  !> (without st the program stops, see dualsig_alloc).
+  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(hdiv_system_t), intent(out) :: sys
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: cliques(:,:)
     type(tri_rule_t) :: exact_rule
     type(rt1_geometry_t) :: g
     real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), se(rt1_nside, rt1_nside), ce(rt1_nside)
     real(dp) :: sgn(rt1_nside)
-    integer :: t, i, dofs(rt1_nside)
-    allocate (cliques(rt1_nside, mesh%ntri))
+    integer :: t, i, dofs(rt1_nside), ist
+    allocate (cliques(rt1_nside, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 element unknowns', rt1_nside * mesh%ntri, BYTES_INT)) return
     do t = 1, mesh%ntri
       call hdiv_side_dofs(mesh, t, cliques(:, t), sgn)
     end do
-    call csr_pattern_from_cliques(2 * mesh%nedge, cliques, sys%a)
-    allocate (sys%b(2 * mesh%nedge), source=0.0_dp)
-    allocate (sys%rec_k(2, rt1_nside, mesh%ntri), sys%rec_d(2, mesh%ntri))
+    call csr_pattern_from_cliques(2 * mesh%nedge, cliques, sys%a, st)
+    if (has_failed(st)) return
+    allocate (sys%b(2 * mesh%nedge), sys%rec_k(2, rt1_nside, mesh%ntri), sys%rec_d(2, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the condensed RT1 system', 2 * mesh%nedge + (2 * rt1_nside + 2) * mesh%ntri, &
+                     BYTES_REAL)) return
+    sys%b = 0.0_dp
     exact_rule = tri_rule(rt1_matrix_degree)
     do t = 1, mesh%ntri
       g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
