@@ -37,6 +37,7 @@ module dualsig_problem_dual_hdiv
                                         hdiv_nfield, hdiv_bedge_dofs
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -68,20 +69,23 @@ contains
     real(dp), allocatable :: xs(:), zero(:), pts(:,:)
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
-    integer :: n
+    integer :: n, ist
 
     if (trim(settings%method) /= 'active_set' .and. trim(settings%method) /= 'uzawa') then
       call set_error(st, DS_ERR_INPUT, 'dual P1 (hdiv): unknown method "' // trim(settings%method) // &
         '"; expected active_set or uzawa')
       return
     end if
-    call assemble_dual_hdiv(mesh, f, rule, sys)
+    call assemble_dual_hdiv(mesh, f, rule, sys, st)
+    if (.not. is_ok(st)) return
     n = sys%a%n
-    call dual_hdiv_bound_kinds(mesh, kind)
+    call dual_hdiv_bound_kinds(mesh, kind, st)
+    if (.not. is_ok(st)) return
     res%nconstraints = count(kind == BOUND_LOWER)
-    allocate (xs(n), source=0.0_dp)
-    allocate (zero(n), source=0.0_dp)
-    allocate (pts(2, n))
+    allocate (xs(n), zero(n), pts(2, n), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 dual vectors', 4 * n, BYTES_REAL)) return
+    xs = 0.0_dp
+    zero = 0.0_dp
     call hdiv_dof_points(mesh, pts)
     if (trim(settings%method) == 'uzawa') then
       call solve_uzawa(sys, kind, pts, settings, xs, res, st)
@@ -103,17 +107,22 @@ contains
     ! feasible by construction (active set) or by projection (Uzawa)
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
     res%nactive = count(kind == BOUND_LOWER .and. xs <= 0.0_dp)
-    allocate (x(hdiv_nfield(mesh)))
+    allocate (x(hdiv_nfield(mesh)), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 dual field', hdiv_nfield(mesh), BYTES_REAL)) return
     call hdiv_recover(mesh, sys, xs, x)
     if (present(sys_out)) sys_out = sys
   end subroutine dual_hdiv_solve
 
   !> Bound kinds of the side unknowns: BOUND_LOWER (>= 0) on boundary edges, free otherwise.
-  subroutine dual_hdiv_bound_kinds(mesh, kind)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_hdiv_bound_kinds(mesh, kind, st)
     type(mesh_t), intent(in) :: mesh
     integer, allocatable, intent(out) :: kind(:)
-    integer :: j, dofs(2)
-    allocate (kind(2 * mesh%nedge), source=BOUND_FREE)
+    type(status_t), intent(inout), optional :: st
+    integer :: j, dofs(2), ist
+    allocate (kind(2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the bound kinds of the RT1 unknowns', 2 * mesh%nedge, BYTES_INT)) return
+    kind = BOUND_FREE
     do j = 1, mesh%nbedge
       call hdiv_bedge_dofs(mesh, j, dofs)
       kind(dofs) = BOUND_LOWER
@@ -168,12 +177,14 @@ contains
     type(uzawa_result_t) :: ures
     integer, allocatable :: rows(:), cols(:), perm(:), row_kind(:)
     real(dp), allocatable :: vals(:), z(:), zero(:)
-    integer :: m, i, ord
+    integer :: m, i, ord, ist
     m = count(kind == BOUND_LOWER)
-    allocate (rows(m), cols(m))
-    allocate (vals(m), source=1.0_dp)
-    allocate (z(m), zero(m), source=0.0_dp)
-    allocate (row_kind(m), source=ROW_INEQUALITY)
+    allocate (rows(m), cols(m), vals(m), z(m), zero(m), row_kind(m), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 constraint rows', 6 * m, BYTES_REAL)) return
+    vals = 1.0_dp
+    z = 0.0_dp
+    zero = 0.0_dp
+    row_kind = ROW_INEQUALITY
     m = 0
     do i = 1, size(kind)
       if (kind(i) /= BOUND_LOWER) cycle
@@ -181,7 +192,8 @@ contains
       rows(m) = m
       cols(m) = i
     end do
-    call rect_from_triplets(m, sys%a%n, rows, cols, vals, bmat)
+    call rect_from_triplets(m, sys%a%n, rows, cols, vals, bmat, st)
+    if (.not. is_ok(st)) return
     call select_ordering(settings%ordering, pts, sys%a, ord, perm, st)
     if (.not. is_ok(st)) return
     call chol%factor(sys%a, st, ord, perm)
