@@ -25,7 +25,7 @@
 !> RES: the relative KKT residual of the returned X (dualsig_solver_psor kkt_residual).
 !> INFO: 0 RES <= TOL; 1 RES > TOL (iteration limit reached; X is the feasible last
 !>       iterate); 2 numerical failure (A not positive definite: the Cholesky factorisation
-!>       failed or the iterate became non-finite; X is not a solution);
+!>       failed or the iterate became non-finite; X is not a solution; or out of memory);
 !>       -k argument k is invalid (k = 1..12, positions as in the argument list).
 subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter, res, info)
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
