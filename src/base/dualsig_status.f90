@@ -44,20 +44,20 @@ contains
   end subroutine set_error
 
   !> Record an out-of-memory error: "out of memory allocating <what> (<size>)", the size
-  !> in B, KB, MB or GB.  Every size-dependent allocation of the library has stat= and
+  !> in B, KB, MB, GB or TB.  Every size-dependent allocation of the library has stat= and
   !> reports through this (dualsig_alloc).
   pure subroutine set_alloc_error(st, nbytes, what)
     use, intrinsic :: iso_fortran_env, only: int64
     type(status_t), intent(inout) :: st
     integer(int64), intent(in) :: nbytes             !! the size of the failed request
     character(len=*), intent(in) :: what             !! what it was for
-    character(len=2), parameter :: unit(0:3) = ['B ', 'KB', 'MB', 'GB']
+    character(len=2), parameter :: unit(0:4) = ['B ', 'KB', 'MB', 'GB', 'TB']
     character(len=32) :: buf
     real :: x
     integer :: k
     x = real(max(nbytes, 0_int64))
     k = 0
-    do while (x >= 1000.0 .and. k < 3)
+    do while (x >= 1000.0 .and. k < 4)
       x = x / 1000.0
       k = k + 1
     end do
