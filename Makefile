@@ -199,7 +199,7 @@ ASAN_FLAGS := -g -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fchec
               -ffpe-trap=invalid,zero,overflow -fbacktrace
 check-asan: deps
 	@$(MAKE) BUILD=asan FFLAGS="$(ASAN_FLAGS)" all
-	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=halt_on_error=1 \
+	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:allocator_may_return_null=1 UBSAN_OPTIONS=halt_on_error=1 \
 	  $(MAKE) check-lite TEST_BUILD=asan TEST_FLAGS="$(ASAN_FLAGS)"
 
 # ---------------------------------------------------------------- benchmarks
