@@ -5,6 +5,7 @@
 #   make check      install missing Debian packages, build the debug library, run the test suite
 #   make check-asan the same suite under Address/UndefinedBehavior/LeakSanitizer
 #   make bench      benchmarks (see doc/performance.md)
+#   make plots      plots under out/ (make plots CSV=out/run.csv: one's own run); make doc-figures
 #   make stress     the numerical stability stress suite (see doc/stress.md)
 #   make BUILD=debug        the checked build (-fcheck=all, FPE traps) into build/debug
 #   make FFLAGS='...'       override the compiler flags
@@ -231,20 +232,37 @@ bench-plots:
 
 # make plots   convergence and work-precision plots of the manufactured runs (bench/plots.gp):
 #              runs data/p2_square.nml and data/p1_square.nml when their CSV tables are missing,
-#              writes out/convergence.png and out/work_precision_runs.png and copies them to doc/
-#              and the adaptive plots (bench/adapt.gp): runs data/adapt_lshape.nml when its final
-#              mesh is missing, writes out/adapt_mesh.png and, after bench/adapt_work_precision.sh,
-#              out/adapt_work_precision.png; copies them to doc/
+#              writes out/convergence.png and out/work_precision_runs.png, and the adaptive plots
+#              (bench/adapt.gp): runs data/adapt_lshape.nml when its final mesh is missing, writes
+#              out/adapt_mesh.png and, after bench/adapt_work_precision.sh,
+#              out/adapt_work_precision.png.  Writes under out/ only.
+# make plots CSV=out/myrun.csv   the plots of any run's CSV table (bench/plot_run.sh):
+#              out/myrun_convergence.png, _work_precision.png, _bounds.png, _timing.png
+#              (several tables: CSV='out/a.csv out/b.csv').  Nothing is run.
+# make doc-figures   make plots, then copy its figures into doc/ (the tracked figures of the
+#              documentation; the only target that writes into doc/)
 PLOT_PNGS := out/convergence.png out/work_precision_runs.png
+DOC_PNGS := $(PLOT_PNGS) out/adapt_mesh.png
+CSV ?=
+.PHONY: doc-figures
 plots: bench-deps
+ifneq ($(strip $(CSV)),)
+	@for c in $(CSV); do bench/plot_run.sh $$c out || exit 1; done
+else
 	@$(MAKE) all
 	@for r in p2_square p1_square; do [ -f out/$$r.csv ] || ./$(DRIVER) data/$$r.nml || [ $$? -eq 3 ] || exit 1; done
 	@[ -f out/adapt_lshape_mesh.dat ] || ./$(DRIVER) data/adapt_lshape.nml || [ $$? -eq 3 ] || exit 1
-	@if command -v gnuplot >/dev/null; then gnuplot bench/plots.gp && cp $(PLOT_PNGS) doc/ && \
-	  echo "dualsig: plots written to $(PLOT_PNGS) and copied to doc/"; \
-	  gnuplot bench/adapt.gp && cp out/adapt_mesh.png doc/ && echo "dualsig: adaptive mesh plot out/adapt_mesh.png"; \
-	  if [ -f out/adapt_work_precision.png ]; then cp out/adapt_work_precision.png doc/; fi; \
+	@if command -v gnuplot >/dev/null; then gnuplot bench/plots.gp && \
+	  echo "dualsig: plots written to $(PLOT_PNGS)"; \
+	  gnuplot bench/adapt.gp && echo "dualsig: adaptive mesh plot out/adapt_mesh.png"; \
 	else echo "dualsig: gnuplot not installed: no plots"; exit 1; fi
+endif
+
+doc-figures:
+	@$(MAKE) plots CSV=
+	@cp $(DOC_PNGS) doc/
+	@if [ -f out/adapt_work_precision.png ]; then cp out/adapt_work_precision.png doc/; fi
+	@echo "dualsig: $(DOC_PNGS) copied to doc/"
 
 # PETSc is optional: installed here when possible (python3-petsc4py: about 150 MB with MPI),
 # otherwise the script prints that it is skipped.  Needs the QP exports of `make bench`.

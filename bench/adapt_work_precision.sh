@@ -55,6 +55,6 @@ PY
   namelist "$name" "$scene" "$gu" "$ga" "$mesh" 1 "$tol" "$ndof" > out/wp/${name}_adapt.nml
   sed -i "s#output = 'out/wp/${name}_run'#output = 'out/wp/${name}_adapt'#" out/wp/${name}_adapt.nml
   ./bin/dualsig out/wp/${name}_adapt.nml > out/wp/${name}_adapt.log || [ $? -eq 3 ]
-  tail -n 4 out/wp/${name}_adapt.log | head -n 1
+  grep "adaptive loop stopped" out/wp/${name}_adapt.log || true
 done
 python3 bench/adapt_summary.py

@@ -41,7 +41,7 @@ module dualsig_analysis
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
-  use dualsig_problem_dual_hdiv, only: dual_hdiv_solve
+  use dualsig_problem_dual_hdiv, only: dual_hdiv_solve, hdiv_nested_t, dual_hdiv_nested_refine, dual_hdiv_nested_free
   use dualsig_estimate_dual_hdiv, only: dual_hdiv_bounds_load, dual_hdiv_errors
   use dualsig_estimate_errors, only: p1_error_norms
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds_load, dual_p1_errors
@@ -55,6 +55,7 @@ module dualsig_analysis
   public :: analysis_start, analysis_next_level, analysis_free
   public :: load_degree, exact_degree, bound_degree_p1, bound_degree_p2, max_level_warnings
   public :: dual_spaces
+  public :: analysis_progress
   public :: adapt_settings_t, analysis_next_step, analysis_adapt_stop, adapt_stop_text, certified_rel_error
   public :: ADAPT_GOING, ADAPT_STOP_TOL, ADAPT_STOP_NDOF, ADAPT_STOP_SECONDS, ADAPT_STOP_STEPS, adapt_max_steps
 
@@ -97,6 +98,23 @@ module dualsig_analysis
     integer :: max_steps = adapt_max_steps !! at most this many steps (<= adapt_max_steps)
   end type adapt_settings_t
 
+  !> The progress callback of the pipeline (analysis_settings_t%progress), for a front end
+  !> that reports long phases (the library itself never prints): called when a phase of
+  !> level (or adaptive step) `level` starts (finished = .false., seconds = 0) and when it
+  !> ends (finished = .true., seconds = its wall time).  The phases, in order: 'refine'
+  !> (from level 2 on: refinement and transfer of u_h), 'assemble' (geometry checks,
+  !> matrices, constraints), 'primal solve', 'dual analysis' (dual solve and bounds).  A
+  !> phase that fails gets no end call.
+  abstract interface
+    subroutine analysis_progress(level, phase, finished, seconds)
+      import :: dp
+      integer, intent(in) :: level
+      character(len=*), intent(in) :: phase
+      logical, intent(in) :: finished
+      real(dp), intent(in) :: seconds
+    end subroutine analysis_progress
+  end interface
+
   !> What is solved: the problem, its coarse mesh, boundary parts and data.
   type :: analysis_problem_t
     integer :: kind = PROBLEM_P2                     !! PROBLEM_P1 or PROBLEM_P2
@@ -129,7 +147,8 @@ module dualsig_analysis
     integer :: ordering = ORDERING_AMD            !! every CHOLMOD factorisation (ORDERING_* of dualsig_sparse_direct)
     logical :: dual = .true.                      !! dual analysis
     logical :: bounds = .true.                    !! with dual: the bounds from the dual field (off: the field only)
-    character(len=16) :: dual_method = 'default'  !! P1: active_set | uzawa; P2: augmented | uzawa; default: the first
+    !> P1: active_set | uzawa | nested (hdiv, from level 2 on); P2: augmented | uzawa; default: the first
+    character(len=16) :: dual_method = 'default'
     real(dp) :: dual_rho = 0.0_dp                 !! Uzawa step, 0 = automatic
     real(dp) :: dual_tol = 1.0e-10_dp             !! Uzawa tolerance, floor
     real(dp) :: dual_tol_h2 = 1.0e-4_dp           !! Uzawa tolerance: max(dual_tol, dual_tol_h2 (h/diam)^2)
@@ -145,6 +164,8 @@ module dualsig_analysis
     real(dp) :: admissible_defect = 1.0e-10_dp
     logical :: keep_fields = .false.              !! return the dual field in the level result
     type(adapt_settings_t) :: adapt               !! the adaptive loop (analysis_next_step)
+    !> called at the start and end of each phase of a level (analysis_progress); none by default
+    procedure(analysis_progress), pointer, nopass :: progress => null()
   end type analysis_settings_t
 
   !> What one level produced.  Columns not computed keep their defaults (has_* false).
@@ -212,6 +233,9 @@ module dualsig_analysis
     real(dp), allocatable :: u_start(:)     !! start of level 1 (optional)
     character(len=16) :: dual_method = ''   !! resolved dual method
     real(dp), allocatable :: est_elem(:)    !! the element indicators of the current level (marking)
+    !> dual method 'nested': the levels so far and the previous field, prolongated to this level
+    type(hdiv_nested_t) :: nest
+    real(dp) :: prolong_seconds = 0.0_dp    !! wall time of that prolongation (part of the dual's cost)
     real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
     real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
     integer :: last_ndof = 0, prev_ndof = 0 !! unknowns of the last two levels / steps
@@ -266,9 +290,10 @@ contains
     if (method == 'default') method = trim(merge('active_set', 'augmented ', problem%kind == PROBLEM_P1))
     if (settings%dual) then
       if ((problem%kind == PROBLEM_P1 .and. method == 'augmented') .or. &
-          (problem%kind /= PROBLEM_P1 .and. method == 'active_set')) then
+          (problem%kind /= PROBLEM_P1 .and. (method == 'active_set' .or. method == 'nested')) .or. &
+          (problem%kind == PROBLEM_P1 .and. method == 'nested' .and. settings%dual_space /= 'hdiv')) then
         call set_error(st, DS_ERR_INPUT, "analysis: dual method '" // method // "' does not apply to problem P" // &
-          itoa(problem%kind) // '; P1: active_set or uzawa, P2: augmented or uzawa')
+          itoa(problem%kind) // '; P1: active_set, uzawa or nested (space hdiv), P2: augmented or uzawa')
         return
       end if
     end if
@@ -314,6 +339,7 @@ contains
     integer :: ist
     t0 = wall_seconds()
     if (an%level > 0) then
+      call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
       call mesh_refine_uniform(an%mesh, finer, st)
       if (.not. is_ok(st)) return
       if (an%settings%nested) then
@@ -321,7 +347,12 @@ contains
         if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
         call mesh_prolongate_p1(an%mesh, finer, an%u, u_next)
       end if
+      if (allocated(an%nest%q)) then
+        call prolongate_q_hdiv(an, finer, st)
+        if (.not. is_ok(st)) return
+      end if
       call move_mesh(finer, an%mesh)
+      call phase_event(an, an%level + 1, 'refine', .true., wall_seconds() - t0)
     else if (allocated(an%u_start)) then
       u_next = an%u_start
     end if
@@ -367,6 +398,7 @@ contains
         'indicators of the previous step (dual analysis with bounds)')
       return
     end if
+    call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
     ! Doerfler's criterion among the triangles that can still be bisected in double precision
     eta2 = an%est_elem
     floor = adapt_area_floor * geom_rel_tol * mesh_diameter(an%mesh)**2
@@ -386,6 +418,7 @@ contains
     end if
     call mesh_refine_marked(an%mesh, marked, finer, parents, st)
     if (.not. is_ok(st)) return
+    call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     allocate (u_next(finer%nnode), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
     call mesh_prolongate_bisection(parents, an%u, u_next)
@@ -395,6 +428,7 @@ contains
     res%level = an%level
     res%max_depth = maxval(an%mesh%tri_gen)
     res%refine_seconds = wall_seconds() - t0
+    call phase_event(an, an%level, 'refine', .true., res%refine_seconds)
     call solve_level(an, res, st)
     call finish_level(an, res, t0)
   end subroutine analysis_next_step
@@ -469,8 +503,21 @@ contains
   !> Release what an analysis holds.
   subroutine analysis_free(an)
     type(analysis_t), intent(inout) :: an
+    call dual_hdiv_nested_free(an%nest)
     an = analysis_t()
   end subroutine analysis_free
+
+  !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform
+  !> refinement `finer` (exact, hdiv_prolongate), the start of the next level's dual solve,
+  !> and the prolongation of its multigrid.
+  subroutine prolongate_q_hdiv(an, finer, st)
+    type(analysis_t), intent(inout) :: an
+    type(mesh_t), intent(in) :: finer
+    type(status_t), intent(inout) :: st
+    an%prolong_seconds = wall_seconds()
+    call dual_hdiv_nested_refine(an%nest, an%mesh, finer, st)
+    an%prolong_seconds = wall_seconds() - an%prolong_seconds
+  end subroutine prolongate_q_hdiv
 
   !> mesh_to = mesh_from (the refinement replaces the level's mesh).
   subroutine move_mesh(mesh_from, mesh_to)
@@ -487,9 +534,12 @@ contains
     type(level_result_t), intent(inout) :: res
     type(status_t), intent(out) :: st
     type(primal_system_t) :: sys
+    real(dp) :: t0
     associate (mesh => an%mesh, pb => an%problem)
       res%nnode = mesh%nnode
       res%ntri = mesh%ntri
+      t0 = wall_seconds()
+      call phase_event(an, an%level, 'assemble', .false., 0.0_dp)
       ! no solve on a folded, doubled or broken mesh: the bounds assume triangles tiling the domain once
       call mesh_check_geometry(mesh, st)
       if (.not. is_ok(st)) then
@@ -510,13 +560,17 @@ contains
                               every_loop_gamma_u=an%settings%dual .and. pb%kind /= PROBLEM_P1)
       if (.not. is_ok(st)) return
       res%ndof = count(sys%kind /= BOUND_FIXED)
+      call phase_event(an, an%level, 'assemble', .true., wall_seconds() - t0)
+      call phase_event(an, an%level, 'primal solve', .false., 0.0_dp)
       call solve_primal(an, sys, res, st)
       if (.not. is_ok(st)) return
+      call phase_event(an, an%level, 'primal solve', .true., res%primal_seconds)
       res%u = an%u
       call move_alloc(sys%kind, res%bound_kind)
       call move_alloc(sys%bnd, res%bound)
       if (allocated(pb%u_exact)) call primal_errors(an, res)
       if (an%settings%dual) then
+        call phase_event(an, an%level, 'dual analysis', .false., 0.0_dp)
         res%estimate_seconds = wall_seconds()
         if (pb%kind == PROBLEM_P1) then
           call dual_level_p1(an, res, st)
@@ -524,10 +578,21 @@ contains
           call dual_level_p2(an, res, st)
         end if
         res%estimate_seconds = wall_seconds() - res%estimate_seconds
+        if (is_ok(st)) call phase_event(an, an%level, 'dual analysis', .true., res%estimate_seconds)
       end if
       if (is_ok(st)) call check_finite_results(an%level, res, st)
     end associate
   end subroutine solve_level
+
+  !> Report the start or the end of a phase to the settings' progress callback, if any.
+  subroutine phase_event(an, level, phase, finished, seconds)
+    type(analysis_t), intent(in) :: an
+    integer, intent(in) :: level
+    character(len=*), intent(in) :: phase
+    logical, intent(in) :: finished
+    real(dp), intent(in) :: seconds
+    if (associated(an%settings%progress)) call an%settings%progress(level, phase, finished, seconds)
+  end subroutine phase_event
 
   !> A level's solution and bounds must be finite: f may be NaN between the points where it
   !> was checked, or so large that the energies overflow.  DS_ERR_NUMERIC otherwise.
@@ -703,7 +768,12 @@ contains
     res%dual_method = an%dual_method
     res%dual_space = an%settings%dual_space
     res%dual_seconds = wall_seconds()
-    if (hdiv) then
+    if (hdiv .and. an%dual_method == 'nested') then
+      ! from level 2 on, from the previous level's field (prolongated by analysis_next_level)
+      if (an%nest%ready) res%dual_seconds = res%dual_seconds - an%prolong_seconds
+      call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u, &
+                           nest=an%nest)
+    else if (hdiv) then
       call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
     else
       call dual_p1_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)

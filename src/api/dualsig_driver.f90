@@ -9,7 +9,8 @@
 !> exact solution.  Output files are written under temporary names and renamed when the
 !> run is complete, so a failed run leaves no partial file and keeps earlier results.
 module dualsig_driver
-  use, intrinsic :: iso_fortran_env, only: output_unit, int64
+  use, intrinsic :: iso_fortran_env, only: output_unit, error_unit, int64
+  use, intrinsic :: iso_c_binding, only: c_int
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
                             DS_WARN_NOT_CONVERGED, DS_WARN_NOT_CERTIFIED, DS_ERR_IO
@@ -35,7 +36,7 @@ module dualsig_driver
   use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
                               table_write_text, table_write_csv, table_format_row, &
-                              table_format_header, observed_rate
+                              table_format_header, observed_rate, table_show
   use dualsig_io_table, only: table_write_latex
   use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_run_files, &
                             vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, &
@@ -48,6 +49,7 @@ module dualsig_driver
   private
 
   public :: run_namelist_file, run_one, primal_columns, dual_columns, adapt_columns
+  public :: progress_default_seconds
 
   !> The exact solutions of the catalogue live on the unit square; bounding-box tolerance.
   real(dp), parameter :: domain_tol = 1.0e-12_dp
@@ -65,14 +67,42 @@ module dualsig_driver
   character(len=16), parameter :: primal_columns(10) = [character(len=16) :: &
     '#level', 'h', '#ndof', '#primal_iters', 'primal_s', 'err_u_H1', 'rate_u_H1', &
     'err_u_L2', 'rate_u_L2', 'kkt_residual']
-  !> Columns appended when the dual analysis runs.
-  character(len=16), parameter :: dual_columns(13) = [character(len=16) :: &
-    '#dual_iters', 'dual_s', 'err_q_Q', 'rate_q_Q', 'est', 'eff', 'energy_lo', 'energy_hi', &
-    'err_q_L2', 'rate_q_L2', 'err_lambda3', 'rate_lambda3', '#certified']
+  !> Columns appended when the dual analysis runs (sqrt_est = sqrt(est); cert_rel_err =
+  !> sqrt(est / energy_lo), the certified relative error, on certified rows).
+  character(len=16), parameter :: dual_columns(15) = [character(len=16) :: &
+    '#dual_iters', 'dual_s', 'err_q_Q', 'rate_q_Q', 'est', 'sqrt_est', 'eff', 'energy_lo', 'energy_hi', &
+    'cert_rel_err', 'err_q_L2', 'rate_q_L2', 'err_lambda3', 'rate_lambda3', '#certified']
+  !> Columns that need the exact solution (hidden from the text table without one).
+  character(len=16), parameter :: exact_columns(11) = [character(len=16) :: &
+    'err_u_H1', 'rate_u_H1', 'err_u_L2', 'rate_u_L2', 'err_q_Q', 'rate_q_Q', 'eff', &
+    'err_q_L2', 'rate_q_L2', 'err_lambda3', 'rate_lambda3']
   !> Columns appended by an adaptive run (&adapt enabled): the observed rate of sqrt(est)
   !> in ndof, the certified relative error, marks, depth, smallest angle and timings.
   character(len=16), parameter :: adapt_columns(9) = [character(len=16) :: &
     'rate_est_ndof', 'rel_cert', '#nmarked', '#nheld', '#max_depth', 'min_angle', 'refine_s', 'estimate_s', 'elapsed_s']
+
+  !> Progress on standard error: a phase of a level (analysis_progress) that lasts at least
+  !> this many seconds is reported with its wall time; the environment variable
+  !> DUALSIG_PROGRESS_SECONDS overrides it (0: every phase; a negative value: none).
+  real(dp), parameter :: progress_default_seconds = 2.0_dp
+
+  !> The state of the progress report of the current run (driver_progress).
+  type :: progress_state_t
+    character(len=:), allocatable :: title        !! the run's title
+    character(len=8) :: unit_name = 'level'       !! 'level', or 'step' for an adaptive run
+    real(dp) :: threshold = progress_default_seconds
+    logical :: tty = .false.                      !! standard error is a terminal: show the running phase
+    logical :: shown = .false.                    !! a running phase is shown on the terminal line
+  end type progress_state_t
+  type(progress_state_t), save :: progress
+
+  interface
+    !> isatty(3) of the C library: 1 when the descriptor is a terminal.
+    integer(c_int) function c_isatty(fd) bind(c, name='isatty')
+      import :: c_int
+      integer(c_int), value :: fd
+    end function c_isatty
+  end interface
 
   !> A run as the driver sees it: the configuration, the problem built from it and what
   !> the header of the table needs.
@@ -202,7 +232,10 @@ contains
     else
       call table_init(tab, primal_columns)
     end if
+    call show_computed_columns(run, tab)
     call settings_from_config(cfg, settings)
+    call progress_start(run)
+    settings%progress => driver_progress
     call analysis_start(an, run%problem, settings, st)
     if (st%code /= 0) then
       st%msg = run%where // ': ' // st%msg
@@ -216,6 +249,12 @@ contains
       write (unit, '(a)') 'dualsig: run "' // run%title // '" (scene ' // trim(run%scene%name) // &
         ', ' // trim(cfg%source_file) // ' line ' // itoa(cfg%line) // ')'
     end if
+    if (allocated(cfg%path_note)) then
+      if (len(cfg%path_note) > 0) write (unit, '(a)') 'warning: ' // run%where // ': ' // cfg%path_note
+    end if
+    if (cfg%method /= 'psor' .and. (cfg%omega_auto .or. cfg%omega /= 1.0_dp)) write (unit, '(a)') 'note: ' // &
+      run%where // ": &solver omega / omega_auto apply to method = 'psor' only; ignored with method = '" // &
+      trim(cfg%method) // "' (the default is 'auto')"
     call mesh_quality_report(run%q0, unit)
     write (unit, '(a)') table_format_header(tab)
     done = 0
@@ -228,6 +267,7 @@ contains
       else
         call analysis_next_level(an, res, st)
       end if
+      call progress_clear()
       if (.not. is_ok(st)) then
         ! a mesh or assembly error names the run; a solver (numerical) error the run, its title and the level
         if (res%ndof > 0) then
@@ -275,6 +315,86 @@ contains
     end if
     if (present(table)) table = tab
   end subroutine run_levels
+
+  !> Prepare the progress report of a run: its title, the threshold (progress_default_seconds
+  !> or DUALSIG_PROGRESS_SECONDS) and whether standard error is a terminal.
+  subroutine progress_start(run)
+    type(run_t), intent(in) :: run
+    character(len=64) :: value
+    integer :: n, stat, ios
+    real(dp) :: seconds
+    progress%title = run%title
+    progress%unit_name = trim(merge('step ', 'level', run%adaptive))
+    progress%threshold = progress_default_seconds
+    call get_environment_variable('DUALSIG_PROGRESS_SECONDS', value, n, stat)
+    if (stat == 0 .and. n > 0) then
+      read (value, *, iostat=ios) seconds
+      if (ios == 0) progress%threshold = seconds
+    end if
+    progress%tty = c_isatty(2_c_int) == 1
+    progress%shown = .false.
+  end subroutine progress_start
+
+  !> The progress callback of the driver's runs (analysis_progress): a phase that took at
+  !> least the threshold is reported on standard error as
+  !> 'dualsig: run "title": level 7: primal solve 3.2 s'; on a terminal the running phase is
+  !> shown meanwhile on a line of its own that the end of the phase clears.
+  subroutine driver_progress(level, phase, finished, seconds)
+    integer, intent(in) :: level
+    character(len=*), intent(in) :: phase
+    logical, intent(in) :: finished
+    real(dp), intent(in) :: seconds
+    character(len=:), allocatable :: label
+    character(len=16) :: buf
+    if (progress%threshold < 0.0_dp) return
+    label = 'dualsig: run "' // progress%title // '": ' // trim(progress%unit_name) // ' ' // itoa(level) // ': ' // phase
+    if (.not. finished) then
+      if (.not. progress%tty) return
+      call progress_clear()
+      write (error_unit, '(a)', advance='no') label // ' ...'
+      flush (error_unit)
+      progress%shown = .true.
+      return
+    end if
+    call progress_clear()
+    if (seconds < progress%threshold) return
+    write (buf, '(f16.1)') seconds
+    write (error_unit, '(a)') label // ' ' // trim(adjustl(buf)) // ' s'
+    flush (error_unit)
+  end subroutine driver_progress
+
+  !> Clear the terminal line of a running phase (driver_progress), if one is shown.
+  subroutine progress_clear()
+    if (.not. progress%shown) return
+    write (error_unit, '(a)', advance='no') achar(13) // achar(27) // '[K'
+    flush (error_unit)
+    progress%shown = .false.
+  end subroutine progress_clear
+
+  !> The columns of the aligned text table (table_show): without an exact solution no error
+  !> column; for P2 no P1-only dual error; with one level no rate; in an adaptive run no
+  !> rel_cert (the same as cert_rel_err).  The CSV keeps every column.
+  subroutine show_computed_columns(run, tab)
+    type(run_t), intent(in) :: run
+    type(table_t), intent(inout) :: tab
+    integer :: k
+    if (.not. run%scene%has_exact) then
+      do k = 1, size(exact_columns)
+        call table_show(tab, trim(exact_columns(k)), .false.)
+      end do
+    end if
+    if (run%scene%problem /= PROBLEM_P1) then
+      do k = 11, size(exact_columns)
+        call table_show(tab, trim(exact_columns(k)), .false.)
+      end do
+    end if
+    if (run%cfg%levels == 1 .and. .not. run%adaptive) then
+      do k = 1, tab%ncol
+        if (index(tab%name(k), 'rate_') == 1) tab%shown(k) = .false.
+      end do
+    end if
+    call table_show(tab, 'rel_cert', .false.)
+  end subroutine show_computed_columns
 
   !> Refuse level `level` when its estimated memory (level_memory_gb) exceeds &run
   !> max_memory_gb, or by default the machine's available memory.
@@ -669,8 +789,10 @@ contains
     call table_set(tab, 'dual_iters', real(res%dual_iters, dp))
     call table_set(tab, 'dual_s', res%dual_seconds)
     call table_set(tab, 'est', res%est)
+    call table_set(tab, 'sqrt_est', sqrt(max(res%est, 0.0_dp)))
     call table_set(tab, 'energy_lo', res%energy_lo)
     call table_set(tab, 'energy_hi', res%energy_hi)
+    if (certified_rel_error(res) < huge(1.0_dp)) call table_set(tab, 'cert_rel_err', certified_rel_error(res))
     call table_set(tab, 'certified', merge(1.0_dp, 0.0_dp, res%certified))
     if (res%has_exact) then
       if (kind == PROBLEM_P1) then
@@ -763,11 +885,11 @@ contains
     type(run_t), intent(in) :: run
     type(mesh_t), intent(in) :: mesh
     character(len=:), allocatable :: header(:)
-    character(len=300), allocatable :: head(:)
+    character(len=500), allocatable :: head(:)
     character(len=:), allocatable :: echo(:)
     type(run_config_t) :: resolved
     character(len=:), allocatable :: norm_name, parts, what
-    character(len=300) :: line
+    character(len=500) :: line
     integer :: k, w
     associate (cfg => run%cfg, scene => run%scene, q0 => run%q0)
       if (scene%problem == PROBLEM_P1) then
@@ -781,7 +903,7 @@ contains
       else
         what = 'scene ' // trim(scene%name) // ': ' // trim(scene%description)
       end if
-      head = [character(len=300) :: &
+      head = [character(len=500) :: &
         'dualsig error table: ' // run%title, &
         what, &
         'problem P' // itoa(scene%problem) // '; err_u_H1 is ' // norm_name // ' of u - u_h (the energy norm)', &
@@ -796,14 +918,14 @@ contains
         line = 'adaptive: level = step of solve -> estimate -> mark (Doerfler, theta = ' // rtoa(cfg%adapt_theta) // &
           ', on est_element) -> refine (newest-vertex bisection, conforming closure); rates in ndof^(-1/2), ' // &
           'rate_est_ndof = p in sqrt(est) ~ ndof^(-p); rel_cert = sqrt(est / energy_lo)'
-        head = [character(len=300) :: head, line]
+        head = [character(len=500) :: head, line]
         line = 'adaptive: smallest angle over all steps ' // rtoa(run%min_angle) // ' deg; refine_s = marking, ' // &
           'bisection and transfer of u_h; estimate_s = dual solve and bounds; elapsed_s = since the start; ' // &
           'nheld = triangles left unmarked at the area floor of double precision'
-        head = [character(len=300) :: head, line]
+        head = [character(len=500) :: head, line]
         if (allocated(run%stop_text)) then
           line = 'adaptive loop STOPPED at ' // run%stop_text
-          head = [character(len=300) :: head, line]
+          head = [character(len=500) :: head, line]
         end if
       end if
       if (cfg%dual_enabled) then
@@ -815,22 +937,25 @@ contains
           line = 'est = E(lambda_h, u_h) of (6.26) >= |u - u_h|_1^2; eff = sqrt(est) / err_u_H1; err_q_Q = ' // &
             '||grad u - lambda_h||_0; energy_lo <= |u|_1^2 = (f,u) <= energy_hi (Theorem 6.4)'
         end if
-        head = [character(len=300) :: head, line]
+        head = [character(len=500) :: head, line]
         line = 'certified = 1: est, energy_lo and energy_hi are guaranteed for the given f (f enters only through ' // &
           'its per-triangle integrals, converged to 1e-12; other integrals exact); 0: not guaranteed (see warnings)'
-        head = [character(len=300) :: head, line]
+        head = [character(len=500) :: head, line]
+        line = 'sqrt_est = sqrt(est), the guaranteed bound of the energy norm of u - u_h; cert_rel_err = ' // &
+          'sqrt(est / energy_lo) >= that norm relative to the norm of u (certified rows only)'
+        head = [character(len=500) :: head, line]
         if (scene%problem /= PROBLEM_P1 .and. cfg%dual_particular == 'polynomial') then
           line = 'lambda_h piecewise quadratic with div lambda_h = -Pi_1 f (L2 projection onto linears on each T); ' // &
             'f - Pi_1 f enters est and energy_hi as (h_T/pi) ||f - Pi_1 f||_T per triangle (Payne-Weinberger)'
-          head = [character(len=300) :: head, line]
+          head = [character(len=500) :: head, line]
         end if
         if (scene%has_exact) then
           line = 'exact energy (f, u) = ' // rtoa(exact_energy(mesh, scene%u, scene%grad_u, tri_rule(exact_degree), &
             scene%problem == PROBLEM_P1))
-          head = [character(len=300) :: head, line]
+          head = [character(len=500) :: head, line]
         end if
       end if
-      head = [character(len=300) :: head, 'namelist (resolved):']
+      head = [character(len=500) :: head, 'namelist (resolved):']
       resolved = cfg
       if (.not. run%by_names) then                       ! by name: the echo keeps the names
         resolved%gamma_u_markers = 0
@@ -886,7 +1011,7 @@ contains
       if (scene%has_exact) then
         parts = parts // ', exact errors (degree-' // itoa(exact_degree) // ' quadrature)'
       else
-        parts = parts // ', no exact solution: error columns nan'
+        parts = parts // ', no exact solution: no error columns (nan in the CSV)'
       end if
       dual_method = trim(cfg%dual_method)
       if (dual_method == 'default') dual_method = trim(merge('active_set', 'augmented ', scene%problem == PROBLEM_P1))

@@ -241,8 +241,10 @@ end subroutine dsbqp
 !> IOPT(10), ROPT(10): options, 0 = default in every slot (see doc/library.md, "DSSIGN").
 !> Outputs: U(NNODE) the primal solution u_h at the nodes (on entry the start when
 !> IOPT(9) = 1); Q(6,NTRI) the dual field at the vertices of each triangle, (Q(1,t), Q(2,t))
-!> at vertex 1, (3:4) at vertex 2, (5:6) at vertex 3: P1 the continuous q, P2 the
-!> equilibrium field lambda_h (discontinuous); BOUNDS(4) = (E, energy_lo, energy_hi, 0):
+!> at vertex 1, (3:4) at vertex 2, (5:6) at vertex 3: P1 the RT1 field q_h (IOPT(10) = 0
+!> or 1; discontinuous, its normal component continuous) or the paper's continuous q
+!> (IOPT(10) = 2), P2 the equilibrium field lambda_h (discontinuous);
+!> BOUNDS(4) = (E, energy_lo, energy_hi, oscillation):
 !> the a posteriori bound E >= ||u - u_h||^2 in the energy norm (P1 (6.13): full H1 norm;
 !> P2 (6.26): H1 seminorm) and energy_lo <= (f, u) <= energy_hi ((6.14), Theorem 6.4).
 !> INFO: 0 success; > 0 a sum of 1 (the primal solver stopped at its iteration limit),

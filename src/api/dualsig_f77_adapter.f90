@@ -17,6 +17,7 @@ module dualsig_f77_adapter
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
   use dualsig_fields, only: scalar_field, function_field
   use dualsig_dual_p2_field, only: dual_p2_lambda
+  use dualsig_assembly_dual_hdiv, only: hdiv_point_value
   use dualsig_problem_dual_p2, only: dual_p2_check_assumptions
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
                               analysis_start, analysis_next_level
@@ -38,6 +39,7 @@ module dualsig_f77_adapter
   real(dp), parameter :: default_dual_tol_h2 = 1.0e-4_dp  !! ROPT(4)
   real(dp), parameter :: default_admissible = 1.0e-10_dp  !! ROPT(7), as dualsig_analysis
   integer, parameter :: dual_off = 3                      !! IOPT(3) value: no dual analysis
+  integer, parameter :: p1_space_paper = 2                !! IOPT(10) value: the paper's P1 dual space
   !> Break lines DSSIGNB accepts at most.
   integer, parameter :: max_breaks = 16
   ! Boundary markers of IBMARK.
@@ -59,6 +61,7 @@ module dualsig_f77_adapter
     integer :: dual_max_iter = default_dual_max_iter
     integer :: check_every = default_check_every
     logical :: start_from_u = .false.        !! IOPT(9) = 1
+    integer :: p1_space = 0                  !! IOPT(10): P1 dual space, 0/1 RT1 (H(div)), 2 the paper's
     real(dp) :: tol = default_tol, omega = default_omega, dual_tol = default_dual_tol
     real(dp) :: dual_tol_h2 = default_dual_tol_h2, rho = 0.0_dp, penalty = 0.0_dp
     real(dp) :: admissible = default_admissible
@@ -495,6 +498,7 @@ contains
     opt%dual_max_iter = merge(default_dual_max_iter, iopt(7), iopt(7) == 0)
     opt%check_every = merge(default_check_every, iopt(8), iopt(8) == 0)
     opt%start_from_u = iopt(9) == 1
+    opt%p1_space = iopt(10)
     if (opt%primal_method < 1 .or. opt%primal_method > 2) then
       msg = 'IOPT(1) = ' // itoa(iopt(1)) // ' (primal solver: 0 default, 1 psor, 2 active set)'
     else if (opt%max_iter < 1) then
@@ -516,8 +520,8 @@ contains
       msg = 'IOPT(8) = ' // itoa(iopt(8)) // ' (sweeps between residuals: 0 default or >= 1)'
     else if (iopt(9) < 0 .or. iopt(9) > 1) then
       msg = 'IOPT(9) = ' // itoa(iopt(9)) // ' (start: 0 zero, 1 U on entry)'
-    else if (iopt(10) /= 0) then
-      msg = 'IOPT(10) = ' // itoa(iopt(10)) // ' (reserved: must be 0)'
+    else if (iopt(10) < 0 .or. iopt(10) > p1_space_paper) then
+      msg = 'IOPT(10) = ' // itoa(iopt(10)) // ' (P1 dual space: 0/1 RT1, 2 the paper''s continuous P1 fields)'
     else
       arg = 0
     end if
@@ -700,8 +704,12 @@ contains
     settings%dual_penalty = opt%penalty
     settings%admissible_defect = opt%admissible
     settings%keep_fields = .true.
-    ! Q(6, NTRI) is documented as the continuous nodal field of Section 3: DSSIGN keeps that space
-    settings%dual_space = 'paper'
+    ! P1: RT1 (H(div), the tight bounds) unless IOPT(10) asks for the paper's continuous field
+    if (opt%p1_space == p1_space_paper) then
+      settings%dual_space = 'paper'
+    else
+      settings%dual_space = 'hdiv'
+    end if
   end function settings_of
 
   !> INFO bits of the level's warnings, and the messages IOPT(4) asks for.
@@ -733,8 +741,9 @@ contains
     end if
   end subroutine report
 
-  !> Q(6, NTRI): the dual field at the caller's vertices of each triangle: P1 the
-  !> continuous q_h at the nodes, P2 lambda_h from inside the triangle.
+  !> Q(6, NTRI): the dual field at the caller's vertices of each triangle: P1 in the paper's
+  !> space the continuous q_h at the nodes; P1 in RT1 and P2 the field's limit from inside the
+  !> triangle (q_h resp. lambda_h; only the normal component is continuous across sides).
   subroutine vertex_field(iprob, mesh, problem, res, itri, flipped, q)
     integer, intent(in) :: iprob
     type(mesh_t), intent(in) :: mesh
@@ -747,15 +756,19 @@ contains
     integer :: t, k, node, kin
     do t = 1, size(itri, 2)
       do k = 1, 3
-        if (iprob == PROBLEM_P1) then
+        if (iprob == PROBLEM_P1 .and. allocated(res%q)) then
           node = itri(k, t)
           q(2 * k - 1:2 * k, t) = res%q(2 * node - 1:2 * node)
+          cycle
+        end if
+        ! the caller's vertex k is vertex kin of the (possibly reoriented) triangle
+        kin = k
+        if (flipped(t) .and. k > 1) kin = 5 - k
+        bary = 0.0_dp
+        bary(kin) = 1.0_dp
+        if (iprob == PROBLEM_P1) then
+          q(2 * k - 1:2 * k, t) = hdiv_point_value(mesh, res%q_hdiv, t, bary)
         else
-          ! the caller's vertex k is vertex kin of the (possibly reoriented) triangle
-          kin = k
-          if (flipped(t) .and. k > 1) kin = 5 - k
-          bary = 0.0_dp
-          bary(kin) = 1.0_dp
           q(2 * k - 1:2 * k, t) = dual_p2_lambda(res%lambda, mesh, problem%f, t, bary)
         end if
       end do

@@ -23,7 +23,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block
+  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, rect_from_triplets
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside
   use dualsig_status, only: status_t
@@ -33,7 +33,7 @@ module dualsig_assembly_dual_hdiv
 
   public :: hdiv_system_t, hdiv_nside_dofs, hdiv_nfield, hdiv_side_dofs, hdiv_local_coefficients, &
             assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, hdiv_point_value, &
-            hdiv_bedge_dofs
+            hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
 
   !> The condensed system of the side unknowns and what recovers the interior ones.
   type :: hdiv_system_t
@@ -41,6 +41,9 @@ module dualsig_assembly_dual_hdiv
     real(dp), allocatable :: b(:)           !! (2 nedge) its right-hand side
     real(dp), allocatable :: rec_k(:,:,:)   !! (2, 6, ntri) interior = rec_d - rec_k (local side values)
     real(dp), allocatable :: rec_d(:,:)     !! (2, ntri)
+    !> I(q) of (3.1') for the side unknowns xs (interior recovered) is
+    !> 1/2 xs^T a xs - b^T xs + shift (shift = -1/2 sum_T b_I^T A_II^{-1} b_I of the condensation)
+    real(dp) :: shift = 0.0_dp
   end type hdiv_system_t
 
 contains
@@ -134,6 +137,7 @@ contains
       g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
       call rt1_element(g, f, rule, exact_rule, ae, be)
       call rt1_condense(ae, be, se, ce, sys%rec_k(:, :, t), sys%rec_d(:, t))
+      sys%shift = sys%shift - 0.5_dp * dot_product(be(7:8), sys%rec_d(:, t))
       call hdiv_side_dofs(mesh, t, dofs, sgn)
       ! local = sgn * global: S_global = D S D, c_global = D c, rec_k D
       do i = 1, rt1_nside
@@ -186,4 +190,106 @@ contains
     call rt1_values(g, bary, psi, dpsi)
     q = matmul(psi, hdiv_local_coefficients(mesh, x, t))
   end function hdiv_point_value
+
+  !> The RT1 field xc (hdiv_nfield of coarse) as a field xf of the mesh fine obtained from
+  !> coarse by mesh_refine_uniform (the children of coarse triangle t are 4t-3 .. 4t): RT1
+  !> spaces are nested under red refinement, so this is exact.  Side unknowns: the coarse
+  !> field of the parent, evaluated at the fine edge's ends, times the fine edge's normal
+  !> (on a fine edge inside a coarse edge the normal trace is the same from both sides);
+  !> interior unknowns: matched to the coarse field's value at the child's centroid.
+  pure subroutine hdiv_prolongate(coarse, fine, xc, xf)
+    type(mesh_t), intent(in) :: coarse, fine
+    real(dp), intent(in) :: xc(:)
+    real(dp), intent(out) :: xf(:)
+    type(rt1_geometry_t) :: gc, gf
+    real(dp) :: c(rt1_nbasis), cf(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), d(2), q(2)
+    real(dp) :: m(2, 2), det
+    integer :: tf, tc, k, e, j, n
+    xf = 0.0_dp
+    do tf = 1, fine%ntri
+      tc = (tf + 3) / 4
+      gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
+      c = hdiv_local_coefficients(coarse, xc, tc)
+      do k = 1, 3
+        e = fine%tri_edge(k, tf)
+        if (fine%edge_tri(1, e) /= tf) cycle
+        ! outward normal of tf on its side k (counter-clockwise), the edge's nu_e
+        d = fine%xy(:, fine%tri(mod(k, 3) + 1, tf)) - fine%xy(:, fine%tri(k, tf))
+        nu = [d(2), -d(1)] / hypot(d(1), d(2))
+        do j = 1, 2
+          n = fine%edge_nodes(j, e)
+          call rt1_values(gc, barycentric(gc, fine%xy(:, n)), psi, dpsi)
+          xf(2 * e - 2 + j) = dot_product(nu, matmul(psi, c))
+        end do
+      end do
+    end do
+    do tf = 1, fine%ntri
+      tc = (tf + 3) / 4
+      gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
+      gf = rt1_geometry(fine%xy(:, fine%tri(:, tf)))
+      call rt1_values(gc, barycentric(gc, sum(gf%xy, dim=2) / 3.0_dp), psi, dpsi)
+      q = matmul(psi, hdiv_local_coefficients(coarse, xc, tc))
+      cf = hdiv_local_coefficients(fine, xf, tf)
+      call rt1_values(gf, [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp, psi, dpsi)
+      ! q - (side part) = c7 psi_7 + c8 psi_8 at the centroid: a 2x2 system
+      q = q - matmul(psi(:, 1:6), cf(1:6))
+      m = psi(:, 7:8)
+      det = m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1)
+      n = 2 * fine%nedge + 2 * tf
+      xf(n - 1) = (m(2, 2) * q(1) - m(1, 2) * q(2)) / det
+      xf(n) = (m(1, 1) * q(2) - m(2, 1) * q(1)) / det
+    end do
+  end subroutine hdiv_prolongate
+
+  !> The prolongation of side unknowns from coarse to its uniform refinement fine, as a
+  !> (2 fine%nedge) x (2 coarse%nedge) matrix p: the coarse field of side unknowns xs with
+  !> its interior unknowns -rec_k xs (the homogeneous condensation of the coarse level,
+  !> hdiv_system_t%rec_k), prolongated as in hdiv_prolongate, side unknowns kept.
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p, st)
+    type(mesh_t), intent(in) :: coarse, fine
+    real(dp), intent(in) :: rec_k(:,:,:)
+    type(rect_t), intent(out) :: p
+    type(status_t), intent(inout), optional :: st
+    integer, allocatable :: rows(:), cols(:)
+    real(dp), allocatable :: vals(:)
+    type(rt1_geometry_t) :: gc
+    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), d(2), w(rt1_nbasis), sgn(rt1_nside)
+    integer :: tf, tc, k, e, j, n, cdofs(rt1_nside), i, ist
+    allocate (rows(12 * fine%nedge), cols(12 * fine%nedge), vals(12 * fine%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 prolongation', 48 * fine%nedge, BYTES_INT)) return
+    n = 0
+    do tf = 1, fine%ntri
+      tc = (tf + 3) / 4
+      gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
+      call hdiv_side_dofs(coarse, tc, cdofs, sgn)
+      do k = 1, 3
+        e = fine%tri_edge(k, tf)
+        if (fine%edge_tri(1, e) /= tf) cycle
+        d = fine%xy(:, fine%tri(mod(k, 3) + 1, tf)) - fine%xy(:, fine%tri(k, tf))
+        nu = [d(2), -d(1)] / hypot(d(1), d(2))
+        do j = 1, 2
+          call rt1_values(gc, barycentric(gc, fine%xy(:, fine%edge_nodes(j, e))), psi, dpsi)
+          w = matmul(nu, psi)
+          do i = 1, rt1_nside
+            n = n + 1
+            rows(n) = 2 * e - 2 + j
+            cols(n) = cdofs(i)
+            vals(n) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
+          end do
+        end do
+      end do
+    end do
+    call rect_from_triplets(2 * fine%nedge, 2 * coarse%nedge, rows(1:n), cols(1:n), vals(1:n), p, st)
+  end subroutine hdiv_prolongation_matrix
+
+  !> Barycentric coordinates of the point p in the triangle of g.
+  pure function barycentric(g, p) result(bary)
+    type(rt1_geometry_t), intent(in) :: g
+    real(dp), intent(in) :: p(2)
+    real(dp) :: bary(3)
+    real(dp) :: centroid(2)
+    centroid = sum(g%xy, dim=2) / 3.0_dp
+    bary = 1.0_dp / 3.0_dp + matmul(p - centroid, g%grad)
+  end function barycentric
 end module dualsig_assembly_dual_hdiv

@@ -16,6 +16,13 @@
 !> assignments are re-read one at a time to name the variable whose value is invalid.
 !> Values are then checked for range.  Every message names the file, the group, the
 !> line and what was expected.  See doc/user-guide.md for the variables and their defaults.
+!>
+!> Input files named in a run (&mesh file, &problem f_file) are relative to the folder of
+!> the namelist file (absolute paths unchanged); a relative path found there is replaced
+!> by that path.  For namelists written for the working directory, a path not found there
+!> but found relative to the working directory is kept, and the run's `path_note` says so
+!> (the driver prints it as a warning).  Output paths (&run output) stay relative to the
+!> working directory.
 module dualsig_io_config
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: ieee_exceptions, only: ieee_usual, ieee_get_halting_mode, ieee_set_halting_mode
@@ -55,6 +62,9 @@ module dualsig_io_config
 
   type :: run_config_t
     character(len=:), allocatable :: source_file   !! the namelist file
+    !> why an input path was taken relative to the working directory, not to the namelist's
+    !> folder (unallocated or '': it was not)
+    character(len=:), allocatable :: path_note
     integer :: line = 0                            !! line of the &run group
     ! &run
     character(len=80) :: title = ''
@@ -79,7 +89,9 @@ module dualsig_io_config
     character(len=16) :: pattern = 'right'
     integer :: levels = 4
     ! &solver
-    character(len=16) :: method = 'psor'
+    !> primal solver; 'auto' (the default): 'schur' or 'active_set' by the number of bounded
+    !> unknowns (analysis_settings_t); 'psor' is the paper's projected SOR
+    character(len=16) :: method = 'auto'
     real(dp) :: omega = 1.0_dp
     logical :: omega_auto = .false.
     real(dp) :: tol = 1.0e-10_dp
@@ -211,8 +223,76 @@ contains
       if (st%code /= 0) return
       call validate_problem(runs(r), st)
       if (st%code /= 0) return
+      call resolve_input_paths(path, runs(r), st)
+      if (st%code /= 0) return
     end do
   end subroutine read_config_file
+
+  !> The input files of run cfg (&mesh file, &problem f_file) relative to the folder of the
+  !> namelist file `path`: 'm.msh' in 'data/x.nml' becomes 'data/m.msh'.  Absolute paths,
+  !> and all paths of a namelist in the working directory, are unchanged.  Fallback for
+  !> namelists written for the working directory: a path that does not exist relative to
+  !> the namelist but does relative to the working directory is kept, noted in
+  !> cfg%path_note.  Error: a resolved path longer than &mesh file can hold.
+  subroutine resolve_input_paths(path, cfg, st)
+    character(len=*), intent(in) :: path
+    type(run_config_t), intent(inout) :: cfg
+    type(status_t), intent(inout) :: st
+    character(len=:), allocatable :: dir, resolved
+    integer :: k
+    k = index(path, '/', back=.true.)
+    if (k == 0) return
+    dir = path(1:k)
+    if (cfg%mesh_source == 'file') then
+      resolved = resolved_input(dir, trim(cfg%mesh_file), '&mesh file', cfg)
+      if (len(resolved) > len(cfg%mesh_file)) then
+        call set_error(st, DS_ERR_INPUT, cfg%source_file // ': run of line ' // itoa(cfg%line) // &
+          ': &mesh file relative to the namelist''s folder, ''' // resolved // ''', is longer than ' // &
+          itoa(len(cfg%mesh_file)) // ' characters; expected a shorter path')
+        return
+      end if
+      cfg%mesh_file = resolved
+    end if
+    if (len_trim(config_text(cfg%f_file)) > 0) cfg%f_file = resolved_input(dir, trim(cfg%f_file), '&problem f_file', cfg)
+  end subroutine resolve_input_paths
+
+  !> The input path `name` of item `what` resolved against the namelist's folder `dir`
+  !> (resolve_input_paths); a fallback to the working directory is noted in cfg%path_note.
+  function resolved_input(dir, name, what, cfg) result(p)
+    character(len=*), intent(in) :: dir, name, what
+    type(run_config_t), intent(inout) :: cfg
+    character(len=:), allocatable :: p
+    character(len=:), allocatable :: note
+    p = name
+    if (len(name) == 0) return
+    if (name(1:1) == '/') return
+    p = dir // name
+    if (input_exists(p) .or. .not. input_exists(name)) return
+    p = name
+    note = what // ' = ''' // name // ''' is not found relative to the namelist''s folder (''' // dir // name // &
+      '''): read relative to the working directory instead; expected a path relative to the namelist file'
+    if (allocated(cfg%path_note)) then
+      if (len(cfg%path_note) > 0) note = cfg%path_note // '; ' // note
+    end if
+    cfg%path_note = note
+  end function resolved_input
+
+  !> True when an input file (or, for a Triangle base name, its .node, .ele or .poly file)
+  !> exists.
+  logical function input_exists(name)
+    character(len=*), intent(in) :: name
+    logical :: e
+    integer :: k
+    character(len=5), parameter :: ext(4) = [character(len=5) :: '', '.node', '.ele', '.poly']
+    input_exists = .false.
+    do k = 1, size(ext)
+      inquire (file=name // trim(ext(k)), exist=e)
+      if (e) then
+        input_exists = .true.
+        return
+      end if
+    end do
+  end function input_exists
 
   !> The resolved configuration as namelist text (for the header of a table): lines of at
   !> least 300 characters, longer when an expression of &problem needs it.  Read back, the
@@ -1161,9 +1241,10 @@ contains
       call set_error(st, DS_ERR_INPUT, where // '&solver max_iter must be >= 1')
     else if (cfg%check_every < 1) then
       call set_error(st, DS_ERR_INPUT, where // '&solver check_every must be >= 1')
-    else if (.not. any(cfg%dual_method == [character(len=16) :: 'default', 'active_set', 'augmented', 'uzawa'])) then
+    else if (.not. any(cfg%dual_method == [character(len=16) :: 'default', 'active_set', 'augmented', 'uzawa', &
+                                            'nested'])) then
       call set_error(st, DS_ERR_INPUT, where // '&dual method = "' // trim(cfg%dual_method) // &
-        '"; expected default, active_set (P1), augmented (P2) or uzawa')
+        '"; expected default, active_set (P1), nested (P1, space hdiv), augmented (P2) or uzawa')
     else if (.not. cfg%dual_rho >= 0.0_dp) then
       call set_error(st, DS_ERR_INPUT, where // '&dual rho = ' // rtoa(cfg%dual_rho) // &
         '; expected rho > 0, or 0 for the automatic choice')

@@ -1,8 +1,14 @@
 !> Error tables: one row per mesh level, written as aligned text and as CSV.
 !>
-!> A cell may be absent (not computed, not applicable); it is written as `nan` in both
-!> files.  Absent cells are recorded in a mask, never as NaN values, so that the
-!> floating-point traps of the checked build stay armed.  Columns are integers or reals.
+!> A cell may be absent (not computed, not applicable); the CSV file writes it as `nan`
+!> (the text as `-`) and keeps every column (a stable schema for scripts).  The aligned text shows only the
+!> columns the caller marks as shown (table_show: e.g. no error columns without an exact
+!> solution), and the text file drops as well the shown columns that stayed empty; so
+!> neither has an always-`nan` column.  Absent cells are recorded in a mask, never as NaN
+!> values, so that the floating-point traps of the checked build stay armed.  Columns are
+!> integers or reals; the text gives reals 5 significant digits, except observed rates
+!> (2 decimals), `eff` (6 decimals: 1.000001 is visible) and `energy_lo`, `energy_hi`
+!> (7 significant digits).
 module dualsig_io_table
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
@@ -10,11 +16,15 @@ module dualsig_io_table
   implicit none
   private
 
-  public :: table_t, table_init, table_new_row, table_set, table_value, table_has, &
+  public :: table_t, table_init, table_new_row, table_set, table_value, table_has, table_show, table_shown, &
             table_write_text, table_write_csv, table_write_latex, table_format_row, table_format_header, &
             observed_rate
 
-  integer, parameter :: col_width = 13   !! width of a text-table column
+  !> Least width of a text-table cell by kind (the column is two wider than this or its name):
+  !> integers, observed rates (f0.2), eff (f0.6), energies (es, 7 digits), other reals (es, 5 digits)
+  integer, parameter :: int_width = 6, rate_width = 5, eff_width = 9, energy_width = 13, real_width = 11
+  !> eff is written with 6 decimals below this value, in scientific notation above
+  real(dp), parameter :: eff_fixed_max = 1.0e4_dp
   !> Reals of the LaTeX table: 4 significant digits (mantissa d.ddd, exponent separate).
   character(len=*), parameter :: latex_real_fmt = '(es16.3e3)'
 
@@ -23,6 +33,7 @@ module dualsig_io_table
     integer :: nrow = 0
     character(len=16), allocatable :: name(:)     !! (ncol) column names
     logical, allocatable :: is_int(:)              !! (ncol) integer column
+    logical, allocatable :: shown(:)               !! (ncol) column of the aligned text (table_show)
     real(dp), allocatable :: val(:,:)              !! (ncol, capacity)
     logical, allocatable :: present(:,:)           !! (ncol, capacity)
   end type table_t
@@ -36,7 +47,8 @@ contains
     character(len=*), intent(in) :: names(:)
     integer :: k
     tab%ncol = size(names)
-    allocate (tab%name(tab%ncol), tab%is_int(tab%ncol))
+    allocate (tab%name(tab%ncol), tab%is_int(tab%ncol), tab%shown(tab%ncol))
+    tab%shown = .true.
     do k = 1, tab%ncol
       tab%is_int(k) = names(k)(1:1) == '#'
       if (tab%is_int(k)) then
@@ -80,6 +92,27 @@ contains
     tab%present(k, tab%nrow) = .true.
   end subroutine table_set
 
+  !> Show column `name` in the aligned text, or hide it (`shown` false; the CSV keeps it).
+  !> Unknown names are ignored.
+  subroutine table_show(tab, name, shown)
+    type(table_t), intent(inout) :: tab
+    character(len=*), intent(in) :: name
+    logical, intent(in) :: shown
+    integer :: k
+    k = column(tab, name)
+    if (k > 0) tab%shown(k) = shown
+  end subroutine table_show
+
+  !> True when column `name` is shown in the aligned text (table_show).
+  pure logical function table_shown(tab, name)
+    type(table_t), intent(in) :: tab
+    character(len=*), intent(in) :: name
+    integer :: k
+    k = column(tab, name)
+    table_shown = .false.
+    if (k > 0) table_shown = tab%shown(k)
+  end function table_shown
+
   !> True when the cell (row, name) holds a value.
   pure logical function table_has(tab, row, name)
     type(table_t), intent(in) :: tab
@@ -113,29 +146,83 @@ contains
     if (ok) rate = log(e_prev / e) / log(h_prev / h)
   end subroutine observed_rate
 
-  !> The column headings as one aligned text line.
+  !> The headings of the shown columns as one aligned text line.
   function table_format_header(tab) result(line)
     type(table_t), intent(in) :: tab
     character(len=:), allocatable :: line
-    integer :: k
-    line = ''
-    do k = 1, tab%ncol
-      line = line // repeat(' ', max(1, col_width - len_trim(tab%name(k)))) // trim(tab%name(k))
-    end do
+    line = header_line(tab, text_columns(tab, .false.))
   end function table_format_header
 
-  !> Row `row` as one aligned text line.
+  !> Row `row` of the shown columns as one aligned text line.
   function table_format_row(tab, row) result(line)
     type(table_t), intent(in) :: tab
     integer, intent(in) :: row
     character(len=:), allocatable :: line
-    integer :: k
-    line = ''
-    do k = 1, tab%ncol
-      line = line // repeat(' ', col_width - len(cell(tab, k, row, .true.))) // &
-             cell(tab, k, row, .true.)
-    end do
+    line = row_line(tab, row, text_columns(tab, .false.))
   end function table_format_row
+
+  !> The columns of the aligned text: the shown ones, without those with no value in any
+  !> row when drop_empty.
+  pure function text_columns(tab, drop_empty) result(cols)
+    type(table_t), intent(in) :: tab
+    logical, intent(in) :: drop_empty
+    integer, allocatable :: cols(:)
+    integer :: k
+    allocate (cols(0))
+    do k = 1, tab%ncol
+      if (.not. tab%shown(k)) cycle
+      if (drop_empty) then
+        if (.not. any(tab%present(k, 1:tab%nrow))) cycle
+      end if
+      cols = [cols, k]
+    end do
+  end function text_columns
+
+  !> Width of text column k: its name or its cells' least width, and two blanks.
+  pure integer function text_width(tab, k)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: k
+    integer :: w
+    if (tab%is_int(k)) then
+      w = int_width
+    else if (index(tab%name(k), 'rate_') == 1) then
+      w = rate_width
+    else if (tab%name(k) == 'eff') then
+      w = eff_width
+    else if (tab%name(k) == 'energy_lo' .or. tab%name(k) == 'energy_hi') then
+      w = energy_width
+    else
+      w = real_width
+    end if
+    text_width = max(len_trim(tab%name(k)), w) + 2
+  end function text_width
+
+  !> The headings of columns `cols`, right-aligned.
+  pure function header_line(tab, cols) result(line)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: cols(:)
+    character(len=:), allocatable :: line
+    integer :: j, k
+    line = ''
+    do j = 1, size(cols)
+      k = cols(j)
+      line = line // repeat(' ', max(1, text_width(tab, k) - len_trim(tab%name(k)))) // trim(tab%name(k))
+    end do
+  end function header_line
+
+  !> The cells of row `row` in columns `cols`, right-aligned.
+  pure function row_line(tab, row, cols) result(line)
+    type(table_t), intent(in) :: tab
+    integer, intent(in) :: row
+    integer, intent(in) :: cols(:)
+    character(len=:), allocatable :: line, c
+    integer :: j
+    line = ''
+    do j = 1, size(cols)
+      c = cell(tab, cols(j), row, .true.)
+      line = line // repeat(' ', max(1, text_width(tab, cols(j)) - len(c))) // c
+    end do
+  end function row_line
 
   !> Write the aligned text table to temp_name(path): `header` lines first (each prefixed
   !> by '# '), then the column names and the rows.  The caller commits the file.
@@ -146,16 +233,18 @@ contains
     type(status_t), intent(out) :: st
     type(text_file_t) :: tf
     integer :: k, r
+    integer, allocatable :: cols(:)
     character(len=:), allocatable :: heading
     call text_open(tf, path, st)
     if (st%code /= 0) return
-    heading = table_format_header(tab)
+    cols = text_columns(tab, .true.)
+    heading = header_line(tab, cols)
     do k = 1, size(header)
       call text_put(tf, '# ' // trim(header(k)))
     end do
     call text_put(tf, '#' // heading(2:))
     do r = 1, tab%nrow
-      call text_put(tf, table_format_row(tab, r))
+      call text_put(tf, row_line(tab, r, cols))
     end do
     call text_close(tf, st)
   end subroutine table_write_text
@@ -259,7 +348,8 @@ contains
     end do
   end function column
 
-  !> Cell text: short form for the aligned table, full precision for CSV.
+  !> Cell text: short form for the aligned table (an absent cell '-'), full precision for
+  !> CSV (an absent cell 'nan').
   pure function cell(tab, k, row, short) result(s)
     type(table_t), intent(in) :: tab
     integer, intent(in) :: k, row
@@ -267,11 +357,17 @@ contains
     character(len=:), allocatable :: s
     character(len=32) :: buf
     if (.not. tab%present(k, row)) then
-      s = 'nan'
+      s = trim(merge('-  ', 'nan', short))
       return
     end if
     if (tab%is_int(k)) then
       write (buf, '(i0)') nint(tab%val(k, row))
+    else if (short .and. index(tab%name(k), 'rate_') == 1 .and. abs(tab%val(k, row)) < 1.0e3_dp) then
+      write (buf, '(f8.2)') tab%val(k, row)
+    else if (short .and. tab%name(k) == 'eff' .and. abs(tab%val(k, row)) < eff_fixed_max) then
+      write (buf, '(f12.6)') tab%val(k, row)
+    else if (short .and. (tab%name(k) == 'eff' .or. tab%name(k) == 'energy_lo' .or. tab%name(k) == 'energy_hi')) then
+      write (buf, '(es14.6e2)') tab%val(k, row)
     else if (short) then
       write (buf, '(es12.4e2)') tab%val(k, row)
     else

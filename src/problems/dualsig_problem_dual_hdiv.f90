@@ -20,12 +20,23 @@
 !>   of the primal solution: where u_h > 0 at a boundary node, q.nu = 0 there (held), where
 !>   u_h = 0, q.nu free; the other unknowns start from the normal component of grad u_h;
 !> - 'uzawa': the paper's algorithm with B = the selection of the bounded unknowns, S
-!>   factorised once; its last iterate is projected on the bounds (feasible).
+!>   factorised once; its last iterate is projected on the bounds (feasible);
+!> - 'nested' (with the state `nest` carried over uniformly refined levels): on the first
+!>   level 'active_set'; on every later level an INEXACT solve without factorisation,
+!>   started from the previous level's field prolongated exactly (hdiv_prolongate).  The
+!>   bounded unknowns are held at 0 where the complementarity prediction says so (and where
+!>   the start is 0 without u_primal), the others improved by CG preconditioned by a
+!>   V-cycle over all levels (dualsig_patch_schwarz: Arnold-Falk-Winther vertex-patch
+!>   smoother, the first level factorised), stopped when a step gains less than
+!>   nested_rel_decrease of the current est (computable: est = 2 (J - j_floor), see
+!>   nested_floor); free bounded unknowns that went negative are then held at 0 and the
+!>   iteration continues (at most nested_max_rounds times).  Any feasible field gives
+!>   guaranteed bounds, so only their sharpness depends on how far the iteration went.
 module dualsig_problem_dual_hdiv
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_sparse, only: rect_t, rect_from_triplets
+  use dualsig_sparse, only: rect_t, rect_from_triplets, csr_t
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spd_solver, only: cholmod_spd_t
@@ -34,17 +45,32 @@ module dualsig_problem_dual_hdiv
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_assembly_dual_hdiv, only: hdiv_system_t, assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, &
-                                        hdiv_nfield, hdiv_bedge_dofs
+                                        hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
+  use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t
   implicit none
   private
 
   public :: dual_hdiv_solve, dual_hdiv_bound_kinds, dual_hdiv_start
+  public :: hdiv_nested_t, dual_hdiv_nested_refine, dual_hdiv_nested_free
+
+  !> The state of method 'nested' between uniformly refined levels.
+  type :: hdiv_nested_t
+    type(mg_hierarchy_t) :: mg               !! the levels solved so far (matrices, prolongations)
+    real(dp), allocatable :: q(:)            !! the last level's field; after a refinement its prolongation
+    real(dp), allocatable :: rec_k(:,:,:)    !! the last level's condensation (hdiv_system_t%rec_k)
+    type(rect_t) :: p_next                   !! after a refinement: the prolongation of side unknowns
+    logical :: ready = .false.               !! q and p_next belong to the current mesh
+  end type hdiv_nested_t
 
   !> Start value of a bounded unknown predicted free (contact: q.nu > 0 expected).
   real(dp), parameter :: free_start = 1.0_dp
+  !> 'nested': stop when a CG step decreases est by less than this fraction of est.
+  real(dp), parameter :: nested_rel_decrease = 1.0e-3_dp
+  !> 'nested': CG steps at most (per round) and rounds of holding negative bounded unknowns.
+  integer, parameter :: nested_max_iter = 500, nested_max_rounds = 4
 
 contains
 
@@ -54,7 +80,7 @@ contains
   !> solution, for the first active set (complementarity) and the start.  st carries
   !> DS_WARN_NOT_CONVERGED when the iteration limit was reached (x is still feasible).
   !> sys_out (optional) returns the condensed system (for tests).
-  subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out)
+  recursive subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out, nest)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
@@ -64,6 +90,7 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: u_primal(:)
     type(hdiv_system_t), intent(out), optional :: sys_out
+    type(hdiv_nested_t), intent(inout), optional :: nest   !! 'nested': the state between levels
     type(hdiv_system_t) :: sys
     integer, allocatable :: kind(:)
     real(dp), allocatable :: xs(:), zero(:), pts(:,:)
@@ -71,9 +98,9 @@ contains
     type(active_set_result_t) :: ares
     integer :: n, ist
 
-    if (trim(settings%method) /= 'active_set' .and. trim(settings%method) /= 'uzawa') then
+    if (all(trim(settings%method) /= [character(len=10) :: 'active_set', 'uzawa', 'nested'])) then
       call set_error(st, DS_ERR_INPUT, 'dual P1 (hdiv): unknown method "' // trim(settings%method) // &
-        '"; expected active_set or uzawa')
+        '"; expected active_set, uzawa or nested')
       return
     end if
     call assemble_dual_hdiv(mesh, f, rule, sys, st)
@@ -89,6 +116,21 @@ contains
     call hdiv_dof_points(mesh, pts)
     if (trim(settings%method) == 'uzawa') then
       call solve_uzawa(sys, kind, pts, settings, xs, res, st)
+    else if (trim(settings%method) == 'nested' .and. present(nest)) then
+      if (nest%ready) then
+        xs = nest%q(1:n)
+        call solve_nested(mesh, f, rule, sys, kind, settings, nest, xs, res, st, u_primal)
+      else
+        ! the first level: solved exactly, the coarsest level of the hierarchy
+        call dual_hdiv_nested_free(nest)
+        call dual_hdiv_solve(mesh, f, rule, dual_p1_settings_t(method='active_set', max_iter=settings%max_iter, &
+                             ordering=settings%ordering), x, res, st, u_primal)
+        if (.not. is_ok(st)) return
+        nest%rec_k = sys%rec_k
+        call mg_add_level(nest%mg, sys%a, nest%p_next, [1], [integer ::], kind == BOUND_LOWER, st)
+        nest%q = x
+        return
+      end if
     else
       if (present(u_primal)) call dual_hdiv_start(mesh, u_primal, xs)
       aset%max_iter = settings%max_iter
@@ -110,6 +152,9 @@ contains
     allocate (x(hdiv_nfield(mesh)), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 dual field', hdiv_nfield(mesh), BYTES_REAL)) return
     call hdiv_recover(mesh, sys, xs, x)
+    if (present(nest)) then
+      if (trim(settings%method) == 'nested') nest%q = x
+    end if
     if (present(sys_out)) sys_out = sys
   end subroutine dual_hdiv_solve
 
@@ -160,6 +205,187 @@ contains
       end do
     end do
   end subroutine dual_hdiv_start
+
+  !> The state of 'nested' after the uniform refinement of coarse into fine: the last
+  !> field prolongated (the start) and the prolongation of side unknowns (the V-cycle's).
+  !> Out of memory: DS_ERR_MEMORY in st.
+  subroutine dual_hdiv_nested_refine(nest, coarse, fine, st)
+    type(hdiv_nested_t), intent(inout) :: nest
+    type(mesh_t), intent(in) :: coarse, fine
+    type(status_t), intent(inout) :: st
+    real(dp), allocatable :: q_next(:)
+    integer :: ist
+    allocate (q_next(hdiv_nfield(fine)), stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated RT1 field', hdiv_nfield(fine), BYTES_REAL)) return
+    call hdiv_prolongate(coarse, fine, nest%q, q_next)
+    call move_alloc(q_next, nest%q)
+    call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st)
+    if (.not. is_ok(st)) return
+    nest%ready = .true.
+  end subroutine dual_hdiv_nested_refine
+
+  !> Release the state of 'nested' (the next solve starts a new hierarchy).
+  subroutine dual_hdiv_nested_free(nest)
+    type(hdiv_nested_t), intent(inout) :: nest
+    call mg_free(nest%mg)
+    nest = hdiv_nested_t()
+  end subroutine dual_hdiv_nested_free
+
+  !> The inexact solve of method 'nested' from the start xs (see the module header); the
+  !> level joins the hierarchy of nest.
+  subroutine solve_nested(mesh, f, rule, sys, kind, settings, nest, xs, res, st, u_primal)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(hdiv_system_t), intent(inout) :: sys
+    integer, intent(in) :: kind(:)
+    type(dual_p1_settings_t), intent(in) :: settings
+    type(hdiv_nested_t), intent(inout) :: nest
+    real(dp), intent(inout) :: xs(:)
+    type(dual_p1_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: u_primal(:)
+    type(pcg_result_t) :: pres
+    logical, allocatable :: free(:)
+    integer, allocatable :: ptr(:), idx(:)
+    real(dp), allocatable :: xs0(:)
+    real(dp) :: j_floor
+    integer :: round, nheld
+    type(status_t) :: st_alloc
+    where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
+    free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
+    if (present(u_primal)) call complementarity_prediction(mesh, u_primal, xs, free)
+    xs0 = xs
+    j_floor = nested_floor(mesh, f, rule, sys, u_primal)
+    ! vertex patches of the unbounded unknowns; the free bounded ones by point blocks
+    call vertex_patches(mesh, kind /= BOUND_LOWER, ptr, idx, st_alloc)
+    if (.not. is_ok(st_alloc)) then
+      st = st_alloc
+      return
+    end if
+    nest%rec_k = sys%rec_k
+    call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, kind == BOUND_LOWER, st)
+    if (.not. is_ok(st)) return
+    nest%ready = .false.
+    do round = 1, nested_max_rounds
+      call mg_hold(nest%mg, free, st)
+      if (.not. is_ok(st)) return
+      call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
+                         min(settings%max_iter, nested_max_iter), xs, pres, st)
+      if (.not. is_ok(st)) return
+      res%iterations = res%iterations + pres%iterations
+      res%converged = pres%converged
+      res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
+      ! free bounded unknowns that went negative: held at 0 from now on
+      nheld = count(free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
+      if (nheld == 0) exit
+      where (free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
+        xs = 0.0_dp
+        free = .false.
+      end where
+    end do
+    ! never worse than the start (both feasible)
+    where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
+    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs) > quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs0)) &
+      xs = xs0
+  end subroutine solve_nested
+
+  !> 1/2 x^T a x - b^T x.
+  real(dp) function quadratic(a, b, x) result(jx)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: b(:), x(:)
+    integer :: i, p
+    real(dp) :: axi
+    jx = 0.0_dp                              ! row by row: no work vector
+    do i = 1, a%n
+      axi = 0.0_dp
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        axi = axi + a%val(p) * x(a%col(p))
+      end do
+      jx = jx + x(i) * (0.5_dp * axi - b(i))
+    end do
+  end function quadratic
+
+  !> The active set predicted by complementarity with the primal solution u (nnode), as
+  !> for the active-set start: a bounded unknown at a node with u > 0 is held at 0
+  !> (q.nu = 0 predicted), one at a node with u = 0 is free.
+  subroutine complementarity_prediction(mesh, u, xs, free)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: u(:)
+    real(dp), intent(inout) :: xs(:)
+    logical, intent(inout) :: free(:)
+    integer :: j, side, dofs(2)
+    do j = 1, mesh%nbedge
+      call hdiv_bedge_dofs(mesh, j, dofs)
+      do side = 1, 2
+        free(dofs(side)) = .not. u(mesh%bedge_nodes(side, j)) > 0.0_dp
+        if (.not. free(dofs(side))) xs(dofs(side)) = 0.0_dp
+      end do
+    end do
+  end subroutine complementarity_prediction
+
+  !> The vertex patches of the free side unknowns: for every node, the free unknowns of
+  !> the edges at it (both ends of each edge).
+  subroutine vertex_patches(mesh, free, ptr, idx, st)
+    type(mesh_t), intent(in) :: mesh
+    logical, intent(in) :: free(:)
+    integer, allocatable, intent(out) :: ptr(:), idx(:)
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: fill(:)
+    integer :: e, j, v, i, ist
+    allocate (ptr(mesh%nnode + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the vertex patches', mesh%nnode + 1, BYTES_INT)) return
+    ptr = 0
+    do e = 1, mesh%nedge
+      do j = 1, 2
+        v = mesh%edge_nodes(j, e)
+        ptr(v + 1) = ptr(v + 1) + count(free(2 * e - 1:2 * e))
+      end do
+    end do
+    ptr(1) = 1
+    do v = 1, mesh%nnode
+      ptr(v + 1) = ptr(v + 1) + ptr(v)
+    end do
+    allocate (idx(ptr(mesh%nnode + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the vertex patches', ptr(mesh%nnode + 1) - 1, BYTES_INT)) return
+    fill = ptr(1:mesh%nnode)
+    do e = 1, mesh%nedge
+      do j = 1, 2
+        v = mesh%edge_nodes(j, e)
+        do i = 2 * e - 1, 2 * e
+          if (.not. free(i)) cycle
+          idx(fill(v)) = i
+          fill(v) = fill(v) + 1
+        end do
+      end do
+    end do
+  end subroutine vertex_patches
+
+  !> j_floor with est(xs) = 2 (J(xs) - j_floor), J(xs) = 1/2 xs^T S xs - c^T xs: by (1.10),
+  !> E(q, u~) = F(q) - 2 (f, u~) + ||u~||_1^2 with F(q) = 2 I(q) + ||f||^2, so
+  !> est = 2 (J + shift) + ||f - u~||^2 + ||grad u~||^2; f by `rule` (a stopping criterion,
+  !> not a bound).  u~ = 0 without u_primal.
+  real(dp) function nested_floor(mesh, f, rule, sys, u_primal) result(j_floor)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(hdiv_system_t), intent(in) :: sys
+    real(dp), intent(in), optional :: u_primal(:)
+    real(dp) :: grad(2, 3), area, ue(3), p(2), s
+    integer :: t, q
+    s = 0.0_dp
+    ue = 0.0_dp
+    do t = 1, mesh%ntri
+      call p1_gradients(mesh%xy(:, mesh%tri(:, t)), grad, area)
+      if (present(u_primal)) ue = u_primal(mesh%tri(:, t))
+      s = s + area * sum(matmul(grad, ue)**2)
+      do q = 1, rule%n
+        p = matmul(mesh%xy(:, mesh%tri(:, t)), rule%bary(:, q))
+        s = s + area * rule%w(q) * (f%value(p(1), p(2)) - dot_product(rule%bary(:, q), ue))**2
+      end do
+    end do
+    j_floor = -sys%shift - 0.5_dp * s
+  end function nested_floor
 
   !> The paper's Uzawa algorithm (Section 3) on the condensed system with B = the rows
   !> e_i^T of the bounded unknowns: S factorised once by CHOLMOD.
