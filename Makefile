@@ -173,10 +173,13 @@ endif
 
 # The layering of src/ (no module uses one of a later layer, every module file lies in a
 # layer folder and is named like its module) and the size rule (no procedure of src/ over
-# MAX_PROCEDURE_LINES lines).  Run by CI through make check.
+# MAX_PROCEDURE_LINES lines), and that every allocation of src/ checks its status
+# (tools/check_alloc.py: stat= and alloc_failed, or a '! small:' comment).  Run by CI
+# through make check.
 MAX_PROCEDURE_LINES := 200
 check-layers:
 	@python3 tools/check_layers.py --max-lines $(MAX_PROCEDURE_LINES) src $(LAYERS)
+	@python3 tools/check_alloc.py src
 
 # The fallback runner: test/pfunit_lite.py translates the .pf subset into Fortran.
 # Every run of a suite gets a scratch TMPDIR of its own (tests write their files there), so
@@ -198,7 +201,7 @@ ASAN_FLAGS := -g -O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fchec
               -ffpe-trap=invalid,zero,overflow -fbacktrace
 check-asan: deps
 	@$(MAKE) BUILD=asan FFLAGS="$(ASAN_FLAGS)" all
-	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=halt_on_error=1 \
+	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:allocator_may_return_null=1 UBSAN_OPTIONS=halt_on_error=1 \
 	  $(MAKE) check-lite TEST_BUILD=asan TEST_FLAGS="$(ASAN_FLAGS)"
 
 # ---------------------------------------------------------------- benchmarks

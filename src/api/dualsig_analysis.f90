@@ -18,7 +18,7 @@ module dualsig_analysis
   use dualsig_kinds, only: dp
   use dualsig_clock, only: wall_seconds
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use dualsig_status, only: status_t, set_error, is_ok, is_warning, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
+  use dualsig_status, only: status_t, set_error, is_ok, is_warning, is_error, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
                             DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
@@ -47,6 +47,7 @@ module dualsig_analysis
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds_load, dual_p1_errors
   use dualsig_load_data, only: load_data_t, load_data_build
   use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_bounds_load, dual_p2_error
+  use dualsig_alloc, only: alloc_failed, BYTES_LOGICAL, BYTES_REAL
   implicit none
   private
 
@@ -335,22 +336,31 @@ contains
     type(mesh_t) :: finer
     real(dp), allocatable :: u_next(:)
     real(dp) :: t0
+    integer :: ist
     t0 = wall_seconds()
     if (an%level > 0) then
       call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
       call mesh_refine_uniform(an%mesh, finer, st)
       if (.not. is_ok(st)) return
       if (an%settings%nested) then
-        allocate (u_next(finer%nnode))
+        allocate (u_next(finer%nnode), stat=ist)
+        if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
         call mesh_prolongate_p1(an%mesh, finer, an%u, u_next)
       end if
-      if (allocated(an%nest%q)) call prolongate_q_hdiv(an, finer)
+      if (allocated(an%nest%q)) then
+        call prolongate_q_hdiv(an, finer, st)
+        if (.not. is_ok(st)) return
+      end if
       call move_mesh(finer, an%mesh)
       call phase_event(an, an%level + 1, 'refine', .true., wall_seconds() - t0)
     else if (allocated(an%u_start)) then
       u_next = an%u_start
     end if
-    if (.not. allocated(u_next)) allocate (u_next(an%mesh%nnode), source=0.0_dp)
+    if (.not. allocated(u_next)) then
+      allocate (u_next(an%mesh%nnode), stat=ist)
+      if (alloc_failed(ist, st, 'the primal solution', an%mesh%nnode, BYTES_REAL)) return
+      u_next = 0.0_dp
+    end if
     call move_alloc(u_next, an%u)
     an%level = an%level + 1
     res%level = an%level
@@ -376,7 +386,7 @@ contains
     integer, allocatable :: parents(:,:)
     real(dp), allocatable :: u_next(:), eta2(:)
     real(dp) :: t0, floor
-    integer :: t
+    integer :: t, ist
     if (an%level == 0) then
       call analysis_next_level(an, res, st)
       if (is_ok(st)) res%max_depth = 0
@@ -398,7 +408,8 @@ contains
         res%nheld = res%nheld + 1
       end if
     end do
-    call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked)
+    call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked, st)
+    if (.not. is_ok(st)) return
     if (res%nmarked == 0) then
       call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ': no triangle to ' // &
         'mark (every indicator is zero, or ' // itoa(res%nheld) // ' triangle(s) with positive ones are at the ' // &
@@ -408,7 +419,8 @@ contains
     call mesh_refine_marked(an%mesh, marked, finer, parents, st)
     if (.not. is_ok(st)) return
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
-    allocate (u_next(finer%nnode))
+    allocate (u_next(finer%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
     call mesh_prolongate_bisection(parents, an%u, u_next)
     call move_mesh(finer, an%mesh)
     call move_alloc(u_next, an%u)
@@ -498,11 +510,12 @@ contains
   !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform
   !> refinement `finer` (exact, hdiv_prolongate), the start of the next level's dual solve,
   !> and the prolongation of its multigrid.
-  subroutine prolongate_q_hdiv(an, finer)
+  subroutine prolongate_q_hdiv(an, finer, st)
     type(analysis_t), intent(inout) :: an
     type(mesh_t), intent(in) :: finer
+    type(status_t), intent(inout) :: st
     an%prolong_seconds = wall_seconds()
-    call dual_hdiv_nested_refine(an%nest, an%mesh, finer)
+    call dual_hdiv_nested_refine(an%nest, an%mesh, finer, st)
     an%prolong_seconds = wall_seconds() - an%prolong_seconds
   end subroutine prolongate_q_hdiv
 
@@ -535,7 +548,8 @@ contains
         return
       end if
       res%h = mesh_h(mesh)
-      call primal_assemble(mesh, pb%kind, pb%f, an%load_rule, sys)
+      call primal_assemble(mesh, pb%kind, pb%f, an%load_rule, sys, st)
+      if (.not. is_ok(st)) return
       if (.not. all(ieee_is_finite(sys%load))) then
         call set_error(st, DS_ERR_NUMERIC, 'analysis: level ' // itoa(an%level) // ': the load vector is not ' // &
           'finite: f is NaN or infinite at a quadrature point, or its integrals overflow (expected a finite f ' // &
@@ -780,7 +794,8 @@ contains
     if (.not. an%settings%bounds) return
     call level_load_data(an, load, res, st)
     if (.not. is_ok(st)) return
-    call p1_bounds_level(an, q, load, hdiv, res, bounds)
+    call p1_bounds_level(an, q, load, hdiv, res, bounds, st)
+    if (.not. is_ok(st)) return
     res%est = bounds%est
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
@@ -790,25 +805,31 @@ contains
 
   !> The bounds of P1 from the load data and, with an exact solution, the dual errors: for
   !> the RT1 field q (hdiv) or the continuous field of Section 3.
-  subroutine p1_bounds_level(an, q, load, hdiv, res, bounds)
+  subroutine p1_bounds_level(an, q, load, hdiv, res, bounds, st)
     type(analysis_t), intent(in) :: an
     real(dp), intent(in) :: q(:)
     type(load_data_t), intent(in) :: load
     logical, intent(in) :: hdiv
     type(level_result_t), intent(inout) :: res
     type(dual_p1_bounds_t), intent(out) :: bounds
+    type(status_t), intent(inout) :: st         !! kept (a warning) unless out of memory
     real(dp), allocatable :: breaks(:)
+    type(status_t) :: st_bounds
     if (hdiv) then
-      call dual_hdiv_bounds_load(an%mesh, an%u, q, load, bounds)
+      call dual_hdiv_bounds_load(an%mesh, an%u, q, load, bounds, st_bounds)
     else
-      call dual_p1_bounds_load(an%mesh, an%u, q, load, bounds)
+      call dual_p1_bounds_load(an%mesh, an%u, q, load, bounds, st_bounds)
+    end if
+    if (is_error(st_bounds)) then
+      st = st_bounds
+      return
     end if
     if (.not. res%has_exact) return
     associate (pb => an%problem)
       if (allocated(pb%x_breaks)) then
         breaks = pb%x_breaks
       else
-        allocate (breaks(0))
+        allocate (breaks(0))                      ! small: empty
       end if
       if (hdiv) then
         call dual_hdiv_errors(an%mesh, q, pb%f, pb%u_exact, pb%grad_exact, an%exact_rule, res%err_q, res%err_div, &
@@ -854,8 +875,9 @@ contains
     type(load_data_t) :: load
     type(status_t) :: st_dual
     logical, allocatable :: is_gamma_a(:)
-    integer :: j
-    allocate (is_gamma_a(an%mesh%nbedge))
+    integer :: j, ist
+    allocate (is_gamma_a(an%mesh%nbedge), stat=ist)
+    if (alloc_failed(ist, st, 'the Gamma_a flags', an%mesh%nbedge, BYTES_LOGICAL)) return
     do j = 1, an%mesh%nbedge
       is_gamma_a(j) = any(an%problem%gamma_a == an%mesh%bedge_marker(j))
     end do
@@ -906,10 +928,14 @@ contains
       if (an%settings%keep_fields) res%lambda = field
       if (.not. an%settings%bounds) return
       if (field%polynomial) then
-        call dual_p2_bounds_load(mesh, an%u, field, load, is_gamma_a, bounds)
+        call dual_p2_bounds_load(mesh, an%u, field, load, is_gamma_a, bounds, st_dual)
         res%oscillation = bounds%oscillation
       else
-        call dual_p2_bounds(mesh, an%u, field, pb%f, is_gamma_a, an%bound_rule_p2, bounds)
+        call dual_p2_bounds(mesh, an%u, field, pb%f, is_gamma_a, an%bound_rule_p2, bounds, st_dual)
+      end if
+      if (is_error(st_dual)) then
+        st = st_dual
+        return
       end if
       if (res%has_exact) res%err_q = dual_p2_error(mesh, field, pb%f, pb%grad_exact, an%bound_rule_p2)
     end associate

@@ -44,6 +44,7 @@ module dualsig_driver
   use dualsig_strings, only: itoa, rtoa
   use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
                               text_abandon, memory_available_gb
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -503,8 +504,8 @@ contains
         if (st%code /= 0) return
         run%scene%has_exact = allocated(pb%u_exact)
         if (run%scene%has_exact) then
-          allocate (run%scene%u, source=pb%u_exact)
-          allocate (run%scene%grad_u, source=pb%grad_exact)
+          allocate (run%scene%u, source=pb%u_exact)            ! small: a compiled expression
+          allocate (run%scene%grad_u, source=pb%grad_exact)    ! small: a compiled expression
         end if
         run%q0 = mesh_quality(pb%mesh)
         return
@@ -518,11 +519,11 @@ contains
       end if
       pb%kind = run%scene%problem
       ! (allocate with source: gfortran 12 mis-assigns to an allocated polymorphic component)
-      allocate (pb%f, source=run%scene%f)
+      allocate (pb%f, source=run%scene%f)                ! small: a scene's function field
       pb%x_breaks = run%scene%x_breaks(1:run%scene%nbreaks)
       if (run%scene%has_exact) then
-        allocate (pb%u_exact, source=run%scene%u)
-        allocate (pb%grad_exact, source=run%scene%grad_u)
+        allocate (pb%u_exact, source=run%scene%u)          ! small: a scene's function field
+        allocate (pb%grad_exact, source=run%scene%grad_u)  ! small: a scene's function field
       end if
       run%q0 = mesh_quality(pb%mesh)
     end associate
@@ -538,7 +539,7 @@ contains
     integer, allocatable :: markers(:)
     associate (cfg => run%cfg, pb => run%problem)
       if (.not. (run%by_names .or. any(cfg%gamma_u_markers /= 0) .or. any(cfg%gamma_a_markers /= 0))) then
-        allocate (markers(0))                     ! the markers of the mesh, ascending
+        allocate (markers(0))                     ! small: empty; the markers of the mesh, ascending
         if (pb%mesh%nbedge > 0) then
           markers = [minval(pb%mesh%bedge_marker)]
           do while (any(pb%mesh%bedge_marker > markers(size(markers))))
@@ -839,14 +840,15 @@ contains
     type(level_result_t), intent(in) :: res
     type(status_t), intent(out) :: st
     type(vtk_fields_t) :: vfields
-    integer :: i, j
+    integer :: i, j, ist
     if (allocated(run%problem%u_exact)) &
       vfields%u_exact = [(run%problem%u_exact%value(mesh%xy(1, i), mesh%xy(2, i)), i=1, mesh%nnode)]
     vfields%contact = vtk_contact_status(res%bound_kind, res%bound, res%u, contact_rel_tol)
     if (res%has_dual) then
       if (run%problem%kind == PROBLEM_P1 .and. allocated(res%q_hdiv)) then
         ! the RT1 field (discontinuous tangential part) per triangle, as for P2
-        allocate (vfields%lambda_centroid(2, mesh%ntri), vfields%lambda_vertices(6, mesh%ntri))
+        allocate (vfields%lambda_centroid(2, mesh%ntri), vfields%lambda_vertices(6, mesh%ntri), stat=ist)
+        if (alloc_failed(ist, st, 'the dual field for ParaView', 8 * mesh%ntri, BYTES_REAL)) return
         do j = 1, mesh%ntri
           vfields%lambda_centroid(:, j) = hdiv_point_value(mesh, res%q_hdiv, j, [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp)
           do i = 1, 3
@@ -858,7 +860,8 @@ contains
         vfields%q_h = reshape(res%q, [2, mesh%nnode])
       else
         ! lambda^h at the centroid and, from inside the triangle, at its three vertices
-        allocate (vfields%lambda_centroid(2, mesh%ntri), vfields%lambda_vertices(6, mesh%ntri))
+        allocate (vfields%lambda_centroid(2, mesh%ntri), vfields%lambda_vertices(6, mesh%ntri), stat=ist)
+        if (alloc_failed(ist, st, 'the dual field for ParaView', 8 * mesh%ntri, BYTES_REAL)) return
         do j = 1, mesh%ntri
           vfields%lambda_centroid(:, j) = dual_p2_lambda(res%lambda, mesh, run%problem%f, j, &
                                                          [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp)
@@ -975,7 +978,7 @@ contains
       end if
       ! lines as long as the longest (an expression of &problem may be longer than 300)
       w = max(len(head), len(echo))
-      allocate (character(len=w) :: header(size(head) + size(echo)))
+      allocate (character(len=w) :: header(size(head) + size(echo)))   ! small: the header lines
       do k = 1, size(head)
         header(k) = head(k)
       end do
@@ -1056,7 +1059,7 @@ contains
         header = [character(len=len(header)) :: header(1:1), line, header(2:)]
       end if
       ! (element by element: gfortran 12 corrupts the heap on some constructors of strings)
-      allocate (paths(2 + merge(1, 0, cfg%latex) + merge(1, 0, run%adaptive) + merge(nlevel + 1, 0, cfg%vtk)))
+      allocate (paths(2 + merge(1, 0, cfg%latex) + merge(1, 0, run%adaptive) + merge(nlevel + 1, 0, cfg%vtk)))  ! small: files
       paths(1) = txt_path
       paths(2) = csv_path
       if (cfg%latex) paths(3) = tex_path

@@ -25,7 +25,7 @@
 !> RES: the relative KKT residual of the returned X (dualsig_solver_psor kkt_residual).
 !> INFO: 0 RES <= TOL; 1 RES > TOL (iteration limit reached; X is the feasible last
 !>       iterate); 2 numerical failure (A not positive definite: the Cholesky factorisation
-!>       failed or the iterate became non-finite; X is not a solution);
+!>       failed or the iterate became non-finite; X is not a solution; or out of memory);
 !>       -k argument k is invalid (k = 1..12, positions as in the argument list).
 subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter, res, info)
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -35,6 +35,7 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
   use dualsig_qp_types, only: BOUND_FREE, BOUND_FIXED
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_status, only: status_t, is_ok
+  use dualsig_alloc, only: alloc_failed, BYTES_INT
   implicit none
   integer, intent(in) :: n                 !! order of A (>= 1)
   integer, intent(in) :: ia(n + 1)         !! row pointers, IA(1) = 1, non-decreasing
@@ -62,7 +63,7 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
   type(status_t) :: st
   integer, allocatable :: rp(:), ci(:)
   real(dp), allocatable :: v(:)
-  integer :: i, p, nnz
+  integer :: i, p, nnz, ist
 
   info = 0
   iter = 0
@@ -90,10 +91,17 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
     end if
   end do
   ! sorted copy: two counting-sort transposes order the columns of every row
-  call transpose_csr(ia, ja(1:nnz), a(1:nnz), rp, ci, v)
-  call transpose_csr(rp, ci, v, mat%rowptr, mat%col, mat%val)
+  call transpose_csr(ia, ja(1:nnz), a(1:nnz), rp, ci, v, st)
+  if (is_ok(st)) call transpose_csr(rp, ci, v, mat%rowptr, mat%col, mat%val, st)
   mat%n = n
-  allocate (mat%diag(n), source=0)
+  if (is_ok(st)) then
+    allocate (mat%diag(n), stat=ist)
+    if (.not. alloc_failed(ist, st, 'the diagonal positions', n, BYTES_INT)) mat%diag = 0
+  end if
+  if (.not. is_ok(st)) then
+    info = 2                                ! out of memory
+    return
+  end if
   do i = 1, n
     do p = mat%rowptr(i), mat%rowptr(i + 1) - 1
       if (p > mat%rowptr(i)) then
@@ -183,15 +191,17 @@ contains
 
   !> The transpose (CSC of the input = CSR of A^T) by a counting sort: the entries of each
   !> output row come in increasing input-row order.  Applied twice, it sorts the columns.
-  subroutine transpose_csr(rp_in, ci_in, v_in, rp_out, ci_out, v_out)
+  subroutine transpose_csr(rp_in, ci_in, v_in, rp_out, ci_out, v_out, st)
     integer, intent(in) :: rp_in(:), ci_in(:)
     real(dp), intent(in) :: v_in(:)
     integer, allocatable, intent(out) :: rp_out(:), ci_out(:)
     real(dp), allocatable, intent(out) :: v_out(:)
-    integer :: r, q, c, m
+    type(status_t), intent(inout) :: st
+    integer :: r, q, c, m, ist
     m = size(rp_in) - 1
-    allocate (rp_out(m + 1), source=0)
-    allocate (ci_out(size(ci_in)), v_out(size(ci_in)))
+    allocate (rp_out(m + 1), ci_out(size(ci_in)), v_out(size(ci_in)), stat=ist)
+    if (alloc_failed(ist, st, 'a copy of the matrix', m + 1 + 3 * size(ci_in), BYTES_INT)) return
+    rp_out = 0
     do q = 1, size(ci_in)
       rp_out(ci_in(q) + 1) = rp_out(ci_in(q) + 1) + 1
     end do

@@ -21,6 +21,7 @@ module dualsig_f77_adapter
   use dualsig_problem_dual_p2, only: dual_p2_check_assumptions
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
                               analysis_start, analysis_next_level
+  use dualsig_alloc, only: alloc_failed, BYTES_INT
   implicit none
   private
 
@@ -43,6 +44,8 @@ module dualsig_f77_adapter
   integer, parameter :: max_breaks = 16
   ! Boundary markers of IBMARK.
   integer, parameter :: mark_gamma_u = 1, mark_gamma_a = 2
+  !> `arg` of the mesh checks when they ran out of memory (INFO = info_failed, not -arg).
+  integer, parameter :: arg_no_memory = -1
   ! INFO values > 0.
   integer, parameter :: info_primal_limit = 1, info_dual_limit = 2, info_not_admissible = 4, &
                         info_failed = 8
@@ -103,7 +106,11 @@ contains
     shift = merge(2, 0, present(nbreak))
     call dssign_output_options(iopt, opt)
     call dssign_mesh(iprob, nnode, xy, ntri, itri, nbedge, ibedge, ibmark, mesh, flipped, arg, msg)
-    if (arg /= 0) then
+    if (arg == arg_no_memory) then
+      info = info_failed
+      call dssign_print(opt, 1, 'DSSIGN: INFO = ' // itoa(info) // ': ' // msg)
+      return
+    else if (arg /= 0) then
       call fail_arg(opt, info, arg, msg)
       return
     end if
@@ -203,7 +210,7 @@ contains
     if (arg /= 0) return
     call check_markers(iprob, ibmark, arg, msg)
     if (arg /= 0) return
-    call boundary_of(mesh, nbedge, ibedge, ibmark, sides)
+    call boundary_of(mesh, nbedge, ibedge, ibmark, sides, arg, msg)
   contains
     subroutine bad(k, text)
       integer, intent(in) :: k
@@ -256,15 +263,17 @@ contains
     integer, intent(out) :: arg
     character(len=:), allocatable, intent(out) :: msg
     real(dp) :: area_tol
-    integer :: t, nnode, nflip
+    integer :: t, nnode, nflip, ist
     type(status_t) :: st
     arg = 0
     nnode = size(xy, 2)
     mesh%nnode = nnode
     mesh%ntri = size(itri, 2)
-    mesh%xy = xy
-    mesh%tri = itri
-    allocate (flipped(mesh%ntri), source=.false.)
+    allocate (mesh%xy(2, nnode), mesh%tri(3, mesh%ntri), flipped(mesh%ntri), stat=ist)
+    if (no_memory(ist, 'a copy of the mesh', 2 * nnode + 4 * mesh%ntri, arg, msg)) return
+    mesh%xy(:, :) = xy
+    mesh%tri(:, :) = itri
+    flipped = .false.
     area_tol = geom_rel_tol * mesh_diameter(mesh)**2
     do t = 1, mesh%ntri
       arg = 5
@@ -299,9 +308,16 @@ contains
     type(side_table_t), intent(out) :: sides
     integer, intent(out) :: arg
     character(len=:), allocatable, intent(out) :: msg
-    integer :: t, k, a, b, l, s
+    integer :: t, k, a, b, l, s, ist
     arg = 0
-    allocate (sides%head(mesh%nnode + 1), sides%fill(mesh%nnode), source=0)
+    allocate (sides%head(mesh%nnode + 1), sides%fill(mesh%nnode), sides%hi(3 * mesh%ntri), &
+              sides%count(3 * mesh%ntri), sides%from(2, 3 * mesh%ntri), stat=ist)
+    if (no_memory(ist, 'the sides of the triangles', 2 * mesh%nnode + 12 * mesh%ntri + 1, arg, msg)) return
+    sides%head = 0
+    sides%fill = 0
+    sides%hi = 0
+    sides%count = 0
+    sides%from = 0
     do t = 1, mesh%ntri
       do k = 1, 3
         l = min(mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t))
@@ -312,7 +328,6 @@ contains
     do l = 1, mesh%nnode
       sides%head(l + 1) = sides%head(l + 1) + sides%head(l)
     end do
-    allocate (sides%hi(3 * mesh%ntri), sides%count(3 * mesh%ntri), sides%from(2, 3 * mesh%ntri), source=0)
     do t = 1, mesh%ntri
       do k = 1, 3
         a = mesh%tri(k, t)
@@ -359,10 +374,12 @@ contains
     integer, intent(out) :: arg
     character(len=:), allocatable, intent(out) :: msg
     logical, allocatable :: listed(:)
-    integer :: j, a, b, p, lo, nbedge
+    integer :: j, a, b, p, lo, nbedge, ist
     arg = 0
     nbedge = size(ibedge, 2)
-    allocate (listed(size(sides%hi)), source=.false.)
+    allocate (listed(size(sides%hi)), stat=ist)
+    if (no_memory(ist, 'the boundary side flags', size(sides%hi), arg, msg)) return
+    listed = .false.
     do j = 1, nbedge
       a = ibedge(1, j)
       b = ibedge(2, j)
@@ -428,20 +445,23 @@ contains
 
   !> The boundary sides of the mesh: the caller's list, or for P1 without one the sides of
   !> one triangle, oriented as in it (domain on the left), all on Gamma_a.
-  subroutine boundary_of(mesh, nbedge, ibedge, ibmark, sides)
+  !> arg = arg_no_memory and msg when out of memory.
+  subroutine boundary_of(mesh, nbedge, ibedge, ibmark, sides, arg, msg)
     type(mesh_t), intent(inout) :: mesh
     integer, intent(in) :: nbedge
     integer, intent(in) :: ibedge(:,:), ibmark(:)
     type(side_table_t), intent(in) :: sides
-    integer :: j, lo, p
+    integer, intent(inout) :: arg
+    character(len=:), allocatable, intent(inout) :: msg
+    integer :: j, lo, p, ist
+    mesh%nbedge = merge(nbedge, sides%nbside, nbedge > 0)
+    allocate (mesh%bedge_nodes(2, mesh%nbedge), mesh%bedge_marker(mesh%nbedge), stat=ist)
+    if (no_memory(ist, 'the boundary sides', 3 * mesh%nbedge, arg, msg)) return
     if (nbedge > 0) then
-      mesh%nbedge = nbedge
-      mesh%bedge_nodes = ibedge
-      mesh%bedge_marker = ibmark
+      mesh%bedge_nodes(:, :) = ibedge(:, 1:nbedge)
+      mesh%bedge_marker(:) = ibmark(1:nbedge)
       return
     end if
-    mesh%nbedge = sides%nbside
-    allocate (mesh%bedge_nodes(2, sides%nbside), mesh%bedge_marker(sides%nbside))
     j = 0
     do lo = 1, mesh%nnode
       do p = sides%head(lo), sides%head(lo) + sides%fill(lo) - 1
@@ -598,7 +618,7 @@ contains
     problem%kind = iprob
     problem%gamma_u = [merge(mark_gamma_u, 0, any(mesh%bedge_marker == mark_gamma_u))]
     problem%gamma_a = [merge(mark_gamma_a, 0, any(mesh%bedge_marker == mark_gamma_a))]
-    allocate (problem%f, source=function_field(fsrc))
+    allocate (problem%f, source=function_field(fsrc))      ! small: a field object
     if (allocated(breaks)) problem%x_breaks = breaks
     call move_mesh(mesh, problem%mesh)
     if (.not. opt%start_from_u) u = 0.0_dp
@@ -633,6 +653,21 @@ contains
     mesh_to = mesh_from
     mesh_from = mesh_t()
   end subroutine move_mesh
+
+  !> True when the allocation status ist is non-zero: then arg = arg_no_memory and msg the
+  !> out-of-memory message naming what and its size (dualsig_alloc).
+  logical function no_memory(ist, what, nelem, arg, msg)
+    integer, intent(in) :: ist                  !! the stat= of the allocate
+    character(len=*), intent(in) :: what        !! what was allocated
+    integer, intent(in) :: nelem                !! 4-byte words requested
+    integer, intent(inout) :: arg
+    character(len=:), allocatable, intent(inout) :: msg
+    type(status_t) :: st
+    no_memory = alloc_failed(ist, st, what, nelem, BYTES_INT)
+    if (.not. no_memory) return
+    arg = arg_no_memory
+    msg = st%msg
+  end function no_memory
 
   !> INFO = -k for argument k, the message printed when IOPT(4) >= 1.
   subroutine fail_arg(opt, info, k, msg)

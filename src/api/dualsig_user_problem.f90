@@ -9,18 +9,19 @@
 !> variable, the point and the triangle.  Boundary parts are the driver's (&run).
 module dualsig_user_problem
   use dualsig_kinds, only: dp
-  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_IO
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_IO
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_expression, only: expression_t, expression_compile, expression_check_finite, &
                                 expression_input_message
   use dualsig_mesh, only: mesh_t
   use dualsig_expression_fields, only: expression_field, expression_gradient
-  use dualsig_coarse_fields, only: region_field, nodal_field
+  use dualsig_coarse_fields, only: region_field, nodal_field, region_field_t, nodal_field_t
   use dualsig_mesh_gmsh, only: gmsh_physical_t
   use dualsig_io_config, only: run_config_t, config_text
   use dualsig_analysis, only: analysis_problem_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL, BYTES_INT
   implicit none
   private
 
@@ -43,7 +44,7 @@ contains
     if (len_trim(config_text(cfg%f)) > 0) then
       call checked_expression(cfg, 'f', trim(config_text(cfg%f)), pb%mesh, .false., e, st)
       if (st%code /= 0) return
-      allocate (pb%f, source=expression_field(e))
+      allocate (pb%f, source=expression_field(e))       ! small: a compiled expression
     else if (any(cfg%f_regions /= '')) then
       call region_load(cfg, phys, pb, st)
     else
@@ -53,8 +54,8 @@ contains
     if (len_trim(config_text(cfg%u_exact)) > 0) then
       call checked_expression(cfg, 'u_exact', trim(config_text(cfg%u_exact)), pb%mesh, .true., e, st)
       if (st%code /= 0) return
-      allocate (pb%u_exact, source=expression_field(e))
-      allocate (pb%grad_exact, source=expression_gradient(e))
+      allocate (pb%u_exact, source=expression_field(e))        ! small: a compiled expression
+      allocate (pb%grad_exact, source=expression_gradient(e))  ! small: a compiled expression
     end if
     pb%x_breaks = cfg%breaks(1:cfg%nbreaks)
   end subroutine user_problem_build
@@ -110,7 +111,7 @@ contains
     real(dp), allocatable :: x(:), y(:)
     integer, allocatable :: owner(:)
     real(dp) :: c(2)
-    integer :: t, k, i, n
+    integer :: t, k, i, n, ist
     logical :: ok
     call expression_compile(text, e, st)
     if (st%code /= 0) then
@@ -119,7 +120,8 @@ contains
     end if
     ! the points: per triangle its centroid and its vertices (a triangle's own, so that a
     ! region's expression is checked on its region only)
-    allocate (x(4 * mesh%ntri), y(4 * mesh%ntri), owner(4 * mesh%ntri))
+    allocate (x(4 * mesh%ntri), y(4 * mesh%ntri), owner(4 * mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the points to check an expression at', 12 * mesh%ntri, BYTES_REAL)) return
     n = 0
     do t = 1, mesh%ntri
       if (present(mask)) then
@@ -137,8 +139,8 @@ contains
         owner(n) = t
       end do
     end do
-    call expression_check_finite(e, x(1:n), y(1:n), ok, i, gradient)
-    if (ok) return
+    call expression_check_finite(e, x(1:n), y(1:n), ok, i, gradient, st)
+    if (ok .or. .not. is_ok(st)) return
     t = owner(i)
     call set_error(st, DS_ERR_INPUT, expression_input_message(cfg%source_file, 'problem', variable, text, &
       trim(merge('the value or its gradient', 'the value                ', gradient)) // ' is not finite (NaN or Inf) at ' // &
@@ -156,7 +158,8 @@ contains
     type(status_t), intent(out) :: st
     type(expression_t), allocatable :: exprs(:)
     integer, allocatable :: tags(:), tri_expr(:)
-    integer :: k, n, t, j, ios
+    integer :: k, n, t, j, ios, ist
+    type(region_field_t) :: rf
     character(len=:), allocatable :: where, item
     where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': '
     if (.not. allocated(pb%mesh%tri_region)) then
@@ -165,7 +168,8 @@ contains
       return
     end if
     n = count(cfg%f_regions /= '')
-    allocate (exprs(n), tags(n), tri_expr(pb%mesh%ntri))
+    allocate (exprs(n), tags(n), tri_expr(pb%mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the regions of the triangles', pb%mesh%ntri, BYTES_INT)) return
     n = 0
     do k = 1, size(cfg%f_regions)
       if (cfg%f_regions(k) == '') cycle
@@ -208,7 +212,10 @@ contains
                               mask=tri_expr == n)
       if (st%code /= 0) return
     end do
-    allocate (pb%f, source=region_field(pb%mesh, tri_expr, exprs))
+    rf = region_field(pb%mesh, tri_expr, exprs, st)
+    if (.not. is_ok(st)) return
+    allocate (pb%f, source=rf, stat=ist)
+    if (alloc_failed(ist, st, 'the load of the regions', 4 * pb%mesh%ntri + 2 * pb%mesh%nnode, BYTES_REAL)) return
   end subroutine region_load
 
   !> The names of the physical surfaces, as '; its surfaces: 'a', 'b'' (or '').
@@ -252,8 +259,9 @@ contains
     character(len=:), allocatable :: path, where
     character(len=4096) :: line
     character(len=256) :: msg
-    integer :: u, ios, n, lineno, k, p, q, nn
+    integer :: u, ios, n, lineno, k, p, q, nn, ist
     real(dp) :: v
+    type(nodal_field_t) :: nf
     path = trim(config_text(cfg%f_file))
     where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': &problem f_file = ''' // path // ''': '
     nn = pb%mesh%nnode
@@ -263,7 +271,11 @@ contains
         '); expected a readable file of nodal values')
       return
     end if
-    allocate (values(nn))
+    allocate (values(nn), stat=ist)
+    if (alloc_failed(ist, st, 'the nodal values of f', nn, BYTES_REAL)) then
+      close (u)
+      return
+    end if
     n = 0
     lineno = 0
     do
@@ -298,6 +310,9 @@ contains
         itoa(nn) // ' nodes (expected one value per node, in the node order of the mesh)')
       return
     end if
-    allocate (pb%f, source=nodal_field(pb%mesh, values))
+    nf = nodal_field(pb%mesh, values, st)
+    if (.not. is_ok(st)) return
+    allocate (pb%f, source=nf, stat=ist)
+    if (alloc_failed(ist, st, 'the nodal load', 3 * pb%mesh%nnode + 3 * pb%mesh%ntri, BYTES_REAL)) return
   end subroutine file_load
 end module dualsig_user_problem

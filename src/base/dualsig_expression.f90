@@ -32,6 +32,7 @@ module dualsig_expression
   use dualsig_kinds, only: dp, pi
   use dualsig_status, only: status_t, set_error, is_error, DS_ERR_INPUT
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -118,7 +119,7 @@ contains
     call ieee_get_status(saved)
     call ieee_set_halting_mode(ieee_usual, .false.)
     p%s = text
-    allocate (p%code(2, 16), p%consts(8))
+    allocate (p%code(2, 16), p%consts(8))                 ! small: fixed size
     if (len_trim(text) == 0 .or. verify(text, ' ' // achar(9) // achar(10) // achar(13)) == 0) then
       call fail(p, 1, 'empty expression')
     else
@@ -640,7 +641,7 @@ contains
     real(dp), intent(in) :: c
     real(dp), allocatable :: tmp(:)
     if (p%nconst == size(p%consts)) then
-      allocate (tmp(2 * size(p%consts)))
+      allocate (tmp(2 * size(p%consts)))    ! small: at most the length of the text (<= max_line_len)
       tmp(1:p%nconst) = p%consts(1:p%nconst)
       call move_alloc(tmp, p%consts)
     end if
@@ -689,7 +690,7 @@ contains
       end if
     end if
     if (p%n == size(p%code, 2)) then
-      allocate (tmp(2, 2 * size(p%code, 2)))
+      allocate (tmp(2, 2 * size(p%code, 2)))    ! small: at most the length of the text (<= max_line_len)
       tmp(:, 1:p%n) = p%code(:, 1:p%n)
       call move_alloc(tmp, p%code)
     end if
@@ -928,7 +929,7 @@ contains
     real(dp), allocatable :: s(:, :)
     logical, allocatable :: cond(:)
     integer :: pc, t, op, pelse, pend
-    allocate (s(size(x), expr%depth))
+    allocate (s(size(x), expr%depth))      ! small: one block (<= block_size points) x the stack depth
     t = 0
     pc = pc0
     do while (pc <= pc1)
@@ -993,7 +994,7 @@ contains
     integer :: m
     m = count(mask)
     if (m == 0) return
-    allocate (vb(m))
+    allocate (vb(m))                        ! small: <= block_size points
     call eval_block(expr, pc0, pc1, pack(x, mask), pack(y, mask), vb)
     v = unpack(vb, mask, v)
   end subroutine eval_branch
@@ -1037,7 +1038,7 @@ contains
     logical, allocatable :: cond(:)
     integer :: pc, t, op, pelse, pend
     real(dp) :: c
-    allocate (s(size(x), expr%depth), sx(size(x), expr%depth), sy(size(x), expr%depth))
+    allocate (s(size(x), expr%depth), sx(size(x), expr%depth), sy(size(x), expr%depth))  ! small: as in eval_block
     t = 0
     pc = pc0
     do while (pc <= pc1)
@@ -1090,7 +1091,7 @@ contains
     integer :: m
     m = count(mask)
     if (m == 0) return
-    allocate (vb(m), gxb(m), gyb(m))
+    allocate (vb(m), gxb(m), gyb(m))        ! small: <= block_size points
     call dual_block(expr, pc0, pc1, pack(x, mask), pack(y, mask), vb, gxb, gyb)
     v = unpack(vb, mask, v)
     gx = unpack(gxb, mask, gx)
@@ -1101,23 +1102,26 @@ contains
   !> finite: ok = .false. and ipoint its index; ok = .true. and ipoint = 0 when there is
   !> none.  Evaluates with floating-point traps disarmed and restores the floating-point
   !> status afterwards.
-  subroutine expression_check_finite(expr, x, y, ok, ipoint, gradient)
+  subroutine expression_check_finite(expr, x, y, ok, ipoint, gradient, st)
     type(expression_t), intent(in) :: expr
     real(dp), intent(in) :: x(:), y(:)
     logical, intent(out) :: ok
     integer, intent(out) :: ipoint
     logical, intent(in), optional :: gradient
+    type(status_t), intent(inout), optional :: st  !! out of memory: ok, DS_ERR_MEMORY (see dualsig_alloc)
     type(ieee_status_type) :: saved
     real(dp), allocatable :: v(:), gx(:), gy(:)
     logical :: with_gradient
-    integer :: i
+    integer :: i, ist
     with_gradient = .false.
     if (present(gradient)) with_gradient = gradient
-    allocate (v(size(x)))
+    ok = .true.
+    ipoint = 0
+    allocate (v(size(x)), gx(merge(size(x), 0, with_gradient)), gy(merge(size(x), 0, with_gradient)), stat=ist)
+    if (alloc_failed(ist, st, 'the values of an expression', 3 * size(x), BYTES_REAL)) return
     call ieee_get_status(saved)
     call ieee_set_halting_mode(ieee_usual, .false.)
     if (with_gradient) then
-      allocate (gx(size(x)), gy(size(x)))
       call expression_eval_grad(expr, x, y, v, gx, gy)
     else
       call expression_eval(expr, x, y, v)

@@ -43,17 +43,31 @@ contains
     st%msg = msg
   end subroutine set_error
 
-  !> Record an out-of-memory error: "out of memory allocating <nbytes> bytes for <what>".
-  !> Every size-dependent allocation of the library has stat= and reports through this.
+  !> Record an out-of-memory error: "out of memory allocating <what> (<size>)", the size
+  !> in B, KB, MB, GB or TB.  Every size-dependent allocation of the library has stat= and
+  !> reports through this (dualsig_alloc).
   pure subroutine set_alloc_error(st, nbytes, what)
     use, intrinsic :: iso_fortran_env, only: int64
     type(status_t), intent(inout) :: st
     integer(int64), intent(in) :: nbytes             !! the size of the failed request
     character(len=*), intent(in) :: what             !! what it was for
-    character(len=24) :: buf
-    write (buf, '(i0)') max(nbytes, 0_int64)
+    character(len=2), parameter :: unit(0:4) = ['B ', 'KB', 'MB', 'GB', 'TB']
+    character(len=32) :: buf
+    real :: x
+    integer :: k
+    x = real(max(nbytes, 0_int64))
+    k = 0
+    do while (x >= 1000.0 .and. k < 4)
+      x = x / 1000.0
+      k = k + 1
+    end do
+    if (k == 0 .or. x >= 100.0) then
+      write (buf, '(i0)') nint(x)
+    else
+      write (buf, '(f0.1)') x
+    end if
     st%code = DS_ERR_MEMORY
-    st%msg = 'out of memory allocating ' // trim(buf) // ' bytes for ' // what
+    st%msg = 'out of memory allocating ' // what // ' (' // trim(buf) // ' ' // trim(unit(k)) // ')'
   end subroutine set_alloc_error
 
   !> Record a warning unless an error is already recorded.

@@ -27,6 +27,8 @@ module dualsig_estimate_dual_hdiv
   use dualsig_assembly_dual_hdiv, only: hdiv_local_coefficients, hdiv_bedge_dofs
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t
   use dualsig_load_data, only: load_data_t
+  use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -44,18 +46,22 @@ contains
   !>   ||f + div q - u~||_T^2 = osc_T^2 + ||Pi_1 f + div q - u~||_T^2,
   !>   ||f + div q||_T^2 = osc_T^2 + ||Pi_1 f + div q||_T^2,   (f, u~)_T = f_T int u~ + grad u~ . m_T,
   !> identities; every other integrand is a polynomial, integrated exactly.
-  subroutine dual_hdiv_bounds_load(mesh, u, x, load, bnd)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_hdiv_bounds_load(mesh, u, x, load, bnd, st)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:), x(:)
     type(load_data_t), intent(in) :: load
     type(dual_p1_bounds_t), intent(out) :: bnd
+    type(status_t), intent(out), optional :: st
+    integer :: ist
     type(tri_rule_t) :: prule, lrule
     type(tri_points_t) :: tp
     type(rt1_geometry_t) :: g
     real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), dv(3), ue(3), gu(2), qq(2)
     real(dp) :: e1, e2, uq, dq, pf, fu, uu, hi, grad(2, 3), area, bary(3), centroid(2)
     integer :: t, k
-    allocate (bnd%est_elem(mesh%ntri))
+    allocate (bnd%est_elem(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     prule = tri_rule(rt1_matrix_degree)
     lrule = tri_rule(linear_product_degree)
     fu = 0.0_dp

@@ -21,6 +21,8 @@ module dualsig_estimate_dual_p1
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_load_data, only: load_data_t
+  use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -41,18 +43,22 @@ contains
 
   !> The bounds of (6.13) and (6.14) for the nodal u~ (nnode) and the interleaved nodal
   !> field q (2 nnode); f is integrated with `rule` (choose a high degree).
-  subroutine dual_p1_bounds(mesh, u, q, f, rule, bnd, breaks)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_p1_bounds(mesh, u, q, f, rule, bnd, breaks, st)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:), q(:)
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(dual_p1_bounds_t), intent(out) :: bnd
+    type(status_t), intent(out), optional :: st
+    integer :: ist
     real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), fq, uq, qq(2)
     real(dp) :: e1, e2, fu, uu, qn(2), ub(2), len
     type(tri_points_t) :: tp
     integer :: t, k, j, a, b
-    allocate (bnd%est_elem(mesh%ntri))
+    allocate (bnd%est_elem(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     fu = 0.0_dp
     uu = 0.0_dp
     do t = 1, mesh%ntri
@@ -93,18 +99,22 @@ contains
   !>   ||f + div q||_T^2 = osc_T^2 + ||Pi_1 f + div q||_T^2,
   !>   (f, u~)_T = f_T int_T u~ + grad u~ . m_T,
   !> identities, so the bounds hold for any f in L2 whose load data are right.
-  subroutine dual_p1_bounds_load(mesh, u, q, load, bnd)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_p1_bounds_load(mesh, u, q, load, bnd, st)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:), q(:)
     type(load_data_t), intent(in) :: load
     type(dual_p1_bounds_t), intent(out) :: bnd
+    type(status_t), intent(out), optional :: st
+    integer :: ist
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), qq(2), pv
     real(dp) :: e1, e2, fu, uu, qsq, hsq, c, centroid(2)
     type(tri_points_t) :: tp
     type(tri_rule_t) :: exact_rule
     integer :: t, k
     exact_rule = tri_rule(polynomial_degree)
-    allocate (bnd%est_elem(mesh%ntri))
+    allocate (bnd%est_elem(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     fu = 0.0_dp
     uu = 0.0_dp
     do t = 1, mesh%ntri

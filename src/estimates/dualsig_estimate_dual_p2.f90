@@ -21,6 +21,8 @@ module dualsig_estimate_dual_p2
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_elements_equilibrium, only: equilibrium_field
   use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_value
+  use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -42,7 +44,8 @@ module dualsig_estimate_dual_p2
 contains
 
   !> The bounds for the nodal u~ and the dual field; f is integrated with `rule`.
-  subroutine dual_p2_bounds(mesh, u, field, f, is_gamma_a, rule, bnd)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_p2_bounds(mesh, u, field, f, is_gamma_a, rule, bnd, st)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:)
     type(dual_p2_field_t), intent(in) :: field
@@ -50,11 +53,14 @@ contains
     logical, intent(in) :: is_gamma_a(:)
     type(tri_rule_t), intent(in) :: rule
     type(dual_p2_bounds_t), intent(out) :: bnd
+    type(status_t), intent(out), optional :: st
+    integer :: ist
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, flux(2), ub(2), len
     real(dp) :: bary(3)
     type(tri_points_t) :: tp
     integer :: t, k, j, i, lv
-    allocate (bnd%est_elem(mesh%ntri))
+    allocate (bnd%est_elem(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     fu = 0.0_dp
     uu = 0.0_dp
     do t = 1, mesh%ntri
@@ -111,19 +117,23 @@ contains
   !>   (f, u~)_T = f_T int_T u~ + grad u~ . m_T exactly (Theorem 6.4).
   !> Without oscillation (f linear on every triangle) these are (6.26) and Theorem 6.4 as
   !> printed.  Every other integrand is a polynomial of degree <= 4, integrated exactly.
-  subroutine dual_p2_bounds_load(mesh, u, field, load, is_gamma_a, bnd)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_p2_bounds_load(mesh, u, field, load, is_gamma_a, bnd, st)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:)
     type(dual_p2_field_t), intent(in) :: field
     type(load_data_t), intent(in) :: load
     logical, intent(in) :: is_gamma_a(:)
     type(dual_p2_bounds_t), intent(out) :: bnd
+    type(status_t), intent(out), optional :: st
+    integer :: ist
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, lsq, osc_t
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp
     integer :: t, k
     rule = tri_rule(polynomial_degree)
-    allocate (bnd%est_elem(mesh%ntri))
+    allocate (bnd%est_elem(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     fu = 0.0_dp
     uu = 0.0_dp
     lsq = 0.0_dp

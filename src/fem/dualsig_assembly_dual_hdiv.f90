@@ -26,6 +26,8 @@ module dualsig_assembly_dual_hdiv
   use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, rect_from_triplets
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside
+  use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -105,25 +107,31 @@ contains
   end function hdiv_local_coefficients
 
   !> Assemble the condensed system: element matrices (exact) and vectors (f with `rule`),
-  !> interior unknowns eliminated per triangle.
-  subroutine assemble_dual_hdiv(mesh, f, rule, sys)
+  !> interior unknowns eliminated per triangle.  Out of memory: DS_ERR_MEMORY in st
+  !> (without st the program stops, see dualsig_alloc).
+  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(hdiv_system_t), intent(out) :: sys
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: cliques(:,:)
     type(tri_rule_t) :: exact_rule
     type(rt1_geometry_t) :: g
     real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), se(rt1_nside, rt1_nside), ce(rt1_nside)
     real(dp) :: sgn(rt1_nside)
-    integer :: t, i, dofs(rt1_nside)
-    allocate (cliques(rt1_nside, mesh%ntri))
+    integer :: t, i, dofs(rt1_nside), ist
+    allocate (cliques(rt1_nside, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 element unknowns', rt1_nside * mesh%ntri, BYTES_INT)) return
     do t = 1, mesh%ntri
       call hdiv_side_dofs(mesh, t, cliques(:, t), sgn)
     end do
-    call csr_pattern_from_cliques(2 * mesh%nedge, cliques, sys%a)
-    allocate (sys%b(2 * mesh%nedge), source=0.0_dp)
-    allocate (sys%rec_k(2, rt1_nside, mesh%ntri), sys%rec_d(2, mesh%ntri))
+    call csr_pattern_from_cliques(2 * mesh%nedge, cliques, sys%a, st)
+    if (has_failed(st)) return
+    allocate (sys%b(2 * mesh%nedge), sys%rec_k(2, rt1_nside, mesh%ntri), sys%rec_d(2, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the condensed RT1 system', 2 * mesh%nedge + (2 * rt1_nside + 2) * mesh%ntri, &
+                     BYTES_REAL)) return
+    sys%b = 0.0_dp
     exact_rule = tri_rule(rt1_matrix_degree)
     do t = 1, mesh%ntri
       g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
@@ -237,16 +245,19 @@ contains
   !> (2 fine%nedge) x (2 coarse%nedge) matrix p: the coarse field of side unknowns xs with
   !> its interior unknowns -rec_k xs (the homogeneous condensation of the coarse level,
   !> hdiv_system_t%rec_k), prolongated as in hdiv_prolongate, side unknowns kept.
-  subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p, st)
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: rec_k(:,:,:)
     type(rect_t), intent(out) :: p
+    type(status_t), intent(inout), optional :: st
     integer, allocatable :: rows(:), cols(:)
     real(dp), allocatable :: vals(:)
     type(rt1_geometry_t) :: gc
     real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), d(2), w(rt1_nbasis), sgn(rt1_nside)
-    integer :: tf, tc, k, e, j, n, cdofs(rt1_nside), i
-    allocate (rows(12 * fine%nedge), cols(12 * fine%nedge), vals(12 * fine%nedge))
+    integer :: tf, tc, k, e, j, n, cdofs(rt1_nside), i, ist
+    allocate (rows(12 * fine%nedge), cols(12 * fine%nedge), vals(12 * fine%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 prolongation', 48 * fine%nedge, BYTES_INT)) return
     n = 0
     do tf = 1, fine%ntri
       tc = (tf + 3) / 4
@@ -269,7 +280,7 @@ contains
         end do
       end do
     end do
-    call rect_from_triplets(2 * fine%nedge, 2 * coarse%nedge, rows(1:n), cols(1:n), vals(1:n), p)
+    call rect_from_triplets(2 * fine%nedge, 2 * coarse%nedge, rows(1:n), cols(1:n), vals(1:n), p, st)
   end subroutine hdiv_prolongation_matrix
 
   !> Barycentric coordinates of the point p in the triangle of g.

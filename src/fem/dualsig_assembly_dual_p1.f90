@@ -18,6 +18,8 @@ module dualsig_assembly_dual_p1
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_elements_p1, only: p1_gradients, p1_element_mass
   use dualsig_sparse, only: csr_t, csr_pattern_from_edges, csr_add_block
+  use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT
+  use dualsig_status, only: status_t
   implicit none
   private
 
@@ -68,19 +70,22 @@ contains
 
   !> Assemble A (2N x 2N, CSR) and b (2N) of the dual problem of P1.  With `transform`
   !> (2, 2, nnode) the result is T^T A T and T^T b for q(i) = transform(:,:,i) s(i).
-  subroutine assemble_dual_p1(mesh, f, rule, a, b, transform)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine assemble_dual_p1(mesh, f, rule, a, b, transform, st)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(csr_t), intent(out) :: a
     real(dp), intent(out) :: b(:)
     real(dp), intent(in), optional :: transform(:,:,:)
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: pairs(:,:)
     real(dp) :: ae(6, 6), be(6), te(6, 6), xy(2, 3)
-    integer :: e, i, j, k, t, dofs(6), n, r, s
+    integer :: e, i, j, k, t, dofs(6), n, r, s, ist
     n = mesh%nnode
     ! pattern: the two components at a node, and all four pairs along every edge
-    allocate (pairs(2, n + 4 * mesh%nedge))
+    allocate (pairs(2, n + 4 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the pattern of the dual P1 matrix', 2 * (n + 4 * mesh%nedge), BYTES_INT)) return
     k = 0
     do i = 1, n
       k = k + 1
@@ -96,7 +101,8 @@ contains
         end do
       end do
     end do
-    call csr_pattern_from_edges(2 * n, pairs, a)
+    call csr_pattern_from_edges(2 * n, pairs, a, st)
+    if (has_failed(st)) return
     b = 0.0_dp
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))

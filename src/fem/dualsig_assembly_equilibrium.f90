@@ -14,13 +14,14 @@
 !>   divergence row per triangle) and simple bounds x >= g_h on the Gamma_a unknowns
 !>   (on a boundary edge n_e is the outward normal).
 module dualsig_assembly_equilibrium
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, csr_pattern_from_cliques, csr_add_block, rect_from_triplets
   use dualsig_elements_equilibrium, only: param_side, param_vertex, equilibrium_c_matrix, &
                                           equilibrium_element_matrix, equilibrium_div_row
   use dualsig_qp_types, only: ROW_EQUALITY, ROW_INEQUALITY
   use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -38,13 +39,16 @@ module dualsig_assembly_equilibrium
 contains
 
   !> The map from element parameters to global edge-end fluxes.
-  subroutine equilibrium_map(mesh, map)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine equilibrium_map(mesh, map, st)
     type(mesh_t), intent(in) :: mesh
     type(equilibrium_map_t), intent(out) :: map
-    integer :: t, k, e, node, jend
+    type(status_t), intent(out), optional :: st
+    integer :: t, k, e, node, jend, ist
     map%ntri = mesh%ntri
     map%nedge = mesh%nedge
-    allocate (map%dof(6, mesh%ntri), map%sgn(6, mesh%ntri))
+    allocate (map%dof(6, mesh%ntri), map%sgn(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium element map', 18_i8 * mesh%ntri, BYTES_INT)) return
     do t = 1, mesh%ntri
       do k = 1, 6
         e = mesh%tri_edge(param_side(k), t)
@@ -62,8 +66,9 @@ contains
     real(dp), allocatable, intent(out) :: c(:,:,:), ae(:,:,:), d(:,:)
     type(status_t), intent(out) :: st
     real(dp) :: xy(2, 3)
-    integer :: t
-    allocate (c(6, 6, mesh%ntri), ae(6, 6, mesh%ntri), d(6, mesh%ntri))
+    integer :: t, ist
+    allocate (c(6, 6, mesh%ntri), ae(6, 6, mesh%ntri), d(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium element matrices', 78_i8 * mesh%ntri, BYTES_REAL)) return
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       call equilibrium_c_matrix(xy, c(:, :, t), st)
@@ -74,13 +79,16 @@ contains
   end subroutine equilibrium_elements
 
   !> A = sum_e P_e^T A_e P_e in the global edge-end unknowns (2 nedge), CSR.
-  subroutine assemble_equilibrium_global(map, ae, a)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine assemble_equilibrium_global(map, ae, a, st)
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: ae(:,:,:)
     type(csr_t), intent(out) :: a
+    type(status_t), intent(out), optional :: st
     real(dp) :: blk(6, 6)
     integer :: t, r, s
-    call csr_pattern_from_cliques(2 * map%nedge, map%dof, a)
+    call csr_pattern_from_cliques(2 * map%nedge, map%dof, a, st)
+    if (has_failed(st)) return
     do t = 1, map%ntri
       do r = 1, 6
         do s = 1, 6
@@ -117,33 +125,40 @@ contains
   end subroutine equilibrium_to_local
 
   !> The divergence rows (4.9) in the global unknowns: row t is sum_k d_k sgn_k x(dof_k).
-  subroutine equilibrium_div_rows_global(map, d, dmat)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine equilibrium_div_rows_global(map, d, dmat, st)
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: d(:,:)
     type(rect_t), intent(out) :: dmat
-    integer :: t
+    type(status_t), intent(out), optional :: st
+    integer :: t, ist
     integer, allocatable :: r(:), c(:)
     real(dp), allocatable :: v(:)
-    allocate (r(6 * map%ntri), c(6 * map%ntri), v(6 * map%ntri))
+    allocate (r(6 * map%ntri), c(6 * map%ntri), v(6 * map%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the divergence rows', 24_i8 * map%ntri, BYTES_INT)) return
     do t = 1, map%ntri
       r(6 * t - 5:6 * t) = t
       c(6 * t - 5:6 * t) = map%dof(:, t)
       v(6 * t - 5:6 * t) = d(:, t) * map%sgn(:, t)
     end do
-    call rect_from_triplets(map%ntri, 2 * map%nedge, r, c, v, dmat)
+    call rect_from_triplets(map%ntri, 2 * map%nedge, r, c, v, dmat, st)
   end subroutine equilibrium_div_rows_global
 
   !> The global unknowns on Gamma_a and their lower bounds g_h: bnd(dof) = gh(end, j) for
   !> boundary edge j with is_gamma_a(j); on_gamma_a(dof) marks them.
-  subroutine equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd, st)
     type(mesh_t), intent(in) :: mesh
     logical, intent(in) :: is_gamma_a(:)
     real(dp), intent(in) :: gh(:,:)
     logical, allocatable, intent(out) :: on_gamma_a(:)
     real(dp), allocatable, intent(out) :: bnd(:)
-    integer :: j, e, i, node
-    allocate (on_gamma_a(2 * mesh%nedge), source=.false.)
-    allocate (bnd(2 * mesh%nedge), source=0.0_dp)
+    type(status_t), intent(out), optional :: st
+    integer :: j, e, i, node, ist
+    allocate (on_gamma_a(2 * mesh%nedge), bnd(2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the bounds on Gamma_a', 4 * mesh%nedge, BYTES_REAL)) return
+    on_gamma_a = .false.
+    bnd = 0.0_dp
     do j = 1, mesh%nbedge
       if (.not. is_gamma_a(j)) cycle
       e = mesh%bedge_edge(j)
@@ -160,7 +175,8 @@ contains
   !> The constraint rows of (4.8) in the element parameters (index 6 (t-1) + k): first the
   !> divergence rows (4.9), then two continuity rows (4.10) per interior edge, both with
   !> free multipliers; then the Gamma_a rows beta >= g_h (E, one unit per row).
-  subroutine equilibrium_rows_local(mesh, map, d, on_gamma_a, bnd, bmat, row_kind, e)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine equilibrium_rows_local(mesh, map, d, on_gamma_a, bnd, bmat, row_kind, e, st)
     type(mesh_t), intent(in) :: mesh
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: d(:,:)
@@ -169,12 +185,15 @@ contains
     type(rect_t), intent(out) :: bmat
     integer, allocatable, intent(out) :: row_kind(:)
     real(dp), allocatable, intent(out) :: e(:)
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: first(:), r(:), c(:)
     real(dp), allocatable :: v(:)
-    integer :: t, k, nrow, nnz, g, idx, ndof
+    integer :: t, k, nrow, nnz, g, idx, ndof, ist
     ndof = 2 * mesh%nedge
-    allocate (first(ndof), source=0)
-    allocate (r(6 * mesh%ntri + 2 * ndof), c(6 * mesh%ntri + 2 * ndof), v(6 * mesh%ntri + 2 * ndof))
+    allocate (first(ndof), r(6 * mesh%ntri + 2 * ndof), c(6 * mesh%ntri + 2 * ndof), v(6 * mesh%ntri + 2 * ndof), &
+              stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium constraint rows', 24_i8 * mesh%ntri + 9_i8 * ndof, BYTES_INT)) return
+    first = 0
     nnz = 0
     do t = 1, mesh%ntri
       do k = 1, 6
@@ -201,8 +220,10 @@ contains
         end if
       end do
     end do
-    allocate (row_kind(nrow + count(on_gamma_a)), source=ROW_EQUALITY)
-    allocate (e(nrow + count(on_gamma_a)), source=0.0_dp)
+    allocate (row_kind(nrow + count(on_gamma_a)), e(nrow + count(on_gamma_a)), stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium constraint rows', 2 * (nrow + count(on_gamma_a)), BYTES_REAL)) return
+    row_kind = ROW_EQUALITY
+    e = 0.0_dp
     do g = 1, ndof
       if (.not. on_gamma_a(g)) cycle
       nrow = nrow + 1
@@ -213,6 +234,6 @@ contains
       row_kind(nrow) = ROW_INEQUALITY
       e(nrow) = bnd(g)
     end do
-    call rect_from_triplets(nrow, 6 * mesh%ntri, r(1:nnz), c(1:nnz), v(1:nnz), bmat)
+    call rect_from_triplets(nrow, 6 * mesh%ntri, r(1:nnz), c(1:nnz), v(1:nnz), bmat, st)
   end subroutine equilibrium_rows_local
 end module dualsig_assembly_equilibrium

@@ -15,6 +15,8 @@ module dualsig_coarse_fields
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_expression, only: expression_t, expression_value
+  use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
+  use dualsig_status, only: status_t
   implicit none
   private
 
@@ -52,16 +54,20 @@ module dualsig_coarse_fields
 
 contains
 
-  !> The bucket grid of `mesh` (about one triangle per cell).
-  subroutine locator_build(mesh, loc)
+  !> The bucket grid of `mesh` (about one triangle per cell).  Out of memory:
+  !> DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine locator_build(mesh, loc, st)
     type(mesh_t), intent(in) :: mesh
     type(point_locator_t), intent(out) :: loc
+    type(status_t), intent(inout), optional :: st
     real(dp) :: x1, y1, w, h, lo(2), hi(2)
-    integer :: t, i, j, i0, i1, j0, j1, c, ncell
+    integer :: t, i, j, i0, i1, j0, j1, c, ncell, ist
     integer, allocatable :: cnt(:), fill(:)
     loc%ntri = mesh%ntri
-    loc%xy = mesh%xy(:, 1:mesh%nnode)
-    loc%tri = mesh%tri(:, 1:mesh%ntri)
+    allocate (loc%xy(2, mesh%nnode), loc%tri(3, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the coarse mesh of the load', 2 * mesh%nnode + 2 * mesh%ntri, BYTES_REAL)) return
+    loc%xy(:, :) = mesh%xy(:, 1:mesh%nnode)
+    loc%tri(:, :) = mesh%tri(:, 1:mesh%ntri)
     loc%x0 = minval(loc%xy(1, :))
     loc%y0 = minval(loc%xy(2, :))
     x1 = maxval(loc%xy(1, :))
@@ -73,7 +79,8 @@ contains
     loc%dx = w / loc%nx
     loc%dy = h / loc%ny
     ncell = loc%nx * loc%ny
-    allocate (cnt(ncell), fill(ncell), loc%head(ncell + 1))
+    allocate (cnt(ncell), fill(ncell), loc%head(ncell + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the point locator of the load', 3 * ncell + 1, BYTES_INT)) return
     cnt = 0
     do t = 1, mesh%ntri                           ! count, then fill (CSR)
       call cell_range(t)
@@ -88,7 +95,8 @@ contains
     do c = 1, ncell
       loc%head(c + 1) = loc%head(c) + cnt(c)
     end do
-    allocate (loc%items(loc%head(ncell + 1) - 1))
+    allocate (loc%items(loc%head(ncell + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the point locator of the load', loc%head(ncell + 1) - 1, BYTES_INT)) return
     fill = loc%head(1:ncell)
     do t = 1, mesh%ntri
       call cell_range(t)
@@ -173,22 +181,28 @@ contains
   end function barycentric
 
   !> The region field of `mesh`: coarse triangle t takes expression exprs(tri_expr(t)).
-  function region_field(mesh, tri_expr, exprs) result(field)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  function region_field(mesh, tri_expr, exprs, st) result(field)
     type(mesh_t), intent(in) :: mesh
     integer, intent(in) :: tri_expr(:)
     type(expression_t), intent(in) :: exprs(:)
+    type(status_t), intent(inout), optional :: st
     type(region_field_t) :: field
-    call locator_build(mesh, field%loc)
+    call locator_build(mesh, field%loc, st)
+    if (has_failed(st)) return
     field%tri_expr = tri_expr
     field%exprs = exprs
   end function region_field
 
-  !> The P1 interpolant of `values` (one per node) on `mesh`.
-  function nodal_field(mesh, values) result(field)
+  !> The P1 interpolant of `values` (one per node) on `mesh`.  Out of memory:
+  !> DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  function nodal_field(mesh, values, st) result(field)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: values(:)
+    type(status_t), intent(inout), optional :: st
     type(nodal_field_t) :: field
-    call locator_build(mesh, field%loc)
+    call locator_build(mesh, field%loc, st)
+    if (has_failed(st)) return
     field%values = values
   end function nodal_field
 

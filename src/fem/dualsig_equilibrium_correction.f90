@@ -45,6 +45,7 @@ module dualsig_equilibrium_correction
   use dualsig_assembly_equilibrium, only: equilibrium_map_t
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_INT
   implicit none
   private
 
@@ -81,7 +82,7 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: target(:)   !! (ntri) wanted w_t (default 0)
     integer, allocatable :: order(:), parent_edge(:)
-    integer :: j, e, t, s, nb, head, tail, i
+    integer :: j, e, t, s, nb, head, tail, i, ist
     real(dp) :: w, g, alpha
 
     if (map%ntri /= mesh%ntri .or. map%nedge /= mesh%nedge) then
@@ -105,7 +106,10 @@ contains
     end if
 
     ! spanning forest: parent_edge(t) = 0 while t is not reached; order = BFS order
-    allocate (order(mesh%ntri), parent_edge(mesh%ntri), source=0)
+    allocate (order(mesh%ntri), parent_edge(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the spanning forest of the triangles', 2 * mesh%ntri, BYTES_INT)) return
+    order = 0
+    parent_edge = 0
     tail = 0
     do j = 1, mesh%nbedge
       if (is_gamma_a(j)) cycle

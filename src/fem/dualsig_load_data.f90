@@ -31,6 +31,7 @@ module dualsig_load_data
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -84,10 +85,7 @@ contains
     data%ntri = mesh%ntri
     allocate (data%mean(mesh%ntri), data%moment(2, mesh%ntri), data%slope(2, mesh%ntri), data%osc(mesh%ntri), &
               data%diameter(mesh%ntri), data%converged(mesh%ntri), stat=k)
-    if (k /= 0) then
-      call set_error(st, DS_ERR_NUMERIC, 'load data: cannot allocate ' // itoa(mesh%ntri) // ' triangles')
-      return
-    end if
+    if (alloc_failed(k, st, 'the load data of the triangles', 11 * mesh%ntri, BYTES_REAL)) return
     br = [real(dp) ::]
     if (present(breaks)) br = breaks
     rule = tri_rule(5)

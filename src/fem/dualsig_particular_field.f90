@@ -68,6 +68,7 @@ module dualsig_particular_field
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_elements_p1, only: p1_gradients
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -224,7 +225,7 @@ contains
     character(len=200) :: buf
     type(integrand_t) :: ig
     real(dp) :: mom(2), abs_int, err
-    integer :: j, t, k, n, ja, jb, nbad
+    integer :: j, t, k, n, ja, jb, nbad, ist
     logical :: ok
 
     if (.not. allocated(mesh%bedge_tri) .or. .not. allocated(mesh%bedge_normal)) then
@@ -254,10 +255,14 @@ contains
     pf%nbedge = mesh%nbedge
     pf%ntri = mesh%ntri
     pf%is_gamma_a = is_gamma_a
-    allocate (pf%gh(2, mesh%nbedge), pf%g_abs(mesh%nbedge), source=0.0_dp)
-    allocate (pf%bedge_local(3, mesh%nbedge), source=0)
-    allocate (pf%tri_ngamma(mesh%ntri), source=0)
-    allocate (pf%tri_gamma(3, mesh%ntri), source=0)
+    allocate (pf%gh(2, mesh%nbedge), pf%g_abs(mesh%nbedge), pf%bedge_local(3, mesh%nbedge), &
+              pf%tri_ngamma(mesh%ntri), pf%tri_gamma(3, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the particular field', 6 * mesh%nbedge + 4 * mesh%ntri, BYTES_REAL)) return
+    pf%gh = 0.0_dp
+    pf%g_abs = 0.0_dp
+    pf%bedge_local = 0
+    pf%tri_ngamma = 0
+    pf%tri_gamma = 0
     pf%converged = .true.
     nbad = 0
 

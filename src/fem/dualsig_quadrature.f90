@@ -53,13 +53,13 @@ contains
     real(dp) :: area, det, pa, q(2)
     integer :: k, j, m, npiece, nnext, i, nbreak
     area = abs(tri_area(xy))
-    allocate (pieces(2, 3, 1))
+    allocate (pieces(2, 3, 1))                        ! small: one triangle
     pieces(:, :, 1) = xy
     npiece = 1
     nbreak = 0
     if (present(breaks)) nbreak = size(breaks)
     do k = 1, nbreak
-      allocate (next(2, 3, 3 * npiece))
+      allocate (next(2, 3, 3 * npiece))               ! small: pieces of one triangle (< 3 per break line)
       nnext = 0
       do j = 1, npiece
         call cut_at_x(pieces(:, :, j), breaks(k), next, nnext)
@@ -67,7 +67,7 @@ contains
       call move_alloc(next, pieces)
       npiece = nnext
     end do
-    allocate (tp%p(2, npiece * rule%n), tp%w(npiece * rule%n), tp%bary(3, npiece * rule%n))
+    allocate (tp%p(2, npiece * rule%n), tp%w(npiece * rule%n), tp%bary(3, npiece * rule%n))  ! small: one triangle
     det = (xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1))
     m = 0
     do j = 1, npiece
@@ -143,7 +143,7 @@ contains
     w2 = (155.0_dp + s15) / 1200.0_dp
     rule%degree = 5
     rule%n = 7
-    allocate (rule%bary(3, 7), rule%w(7))
+    allocate (rule%bary(3, 7), rule%w(7))              ! small: fixed size
     rule%bary(:, 1) = [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp
     rule%w(1) = 9.0_dp / 40.0_dp
     rule%bary(:, 2) = [a1, a1, 1.0_dp - 2.0_dp * a1]
@@ -170,7 +170,7 @@ contains
     ws = 0.5_dp * ws
     rule%degree = 2 * m - 2
     rule%n = m * m
-    allocate (rule%bary(3, m * m), rule%w(m * m))
+    allocate (rule%bary(3, m * m), rule%w(m * m))      ! small: m from the rule's degree
     k = 0
     do i = 1, m
       do j = 1, m

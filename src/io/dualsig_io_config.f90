@@ -27,11 +27,12 @@ module dualsig_io_config
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use, intrinsic :: ieee_exceptions, only: ieee_usual, ieee_get_halting_mode, ieee_set_halting_mode
   use dualsig_kinds, only: dp, i8
-  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_IO
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_IO
   use dualsig_scenes, only: max_markers
   use dualsig_strings, only: itoa, rtoa, lower
   use dualsig_expression, only: expression_t, expression_compile_input
   use dualsig_io_files, only: regular_file_size
+  use dualsig_alloc, only: alloc_failed
   implicit none
   private
 
@@ -157,9 +158,9 @@ contains
     logical :: seen(5)                    ! &mesh, &solver, &dual, &problem, &adapt in the current run
     character(len=*), parameter :: member_groups(5) = [character(len=8) :: 'mesh', 'solver', 'dual', 'problem', &
                                                        'adapt']
-    integer :: kgroup
+    integer :: kgroup, ist
 
-    allocate (runs(0))
+    allocate (runs(0))                              ! small: empty
     call read_lines(path, lines, st)
     if (st%code /= 0) return
     call split_groups(path, lines, groups, st)
@@ -171,7 +172,8 @@ contains
       return
     end if
     deallocate (runs)
-    allocate (runs(nrun))
+    allocate (runs(nrun), stat=ist)
+    if (alloc_failed(ist, st, 'the runs of ' // trim(path), nrun, storage_size(runs) / 8)) return
     r = 0
     seen = .false.
     do g = 1, size(groups)
@@ -344,7 +346,7 @@ contains
     prob = ''
     if (cfg%has_problem) prob = problem_echo(cfg)
     w = max(len(fixed), len(prob))
-    allocate (character(len=w) :: lines(n + merge(1, 0, cfg%has_problem)))
+    allocate (character(len=w) :: lines(n + merge(1, 0, cfg%has_problem)))  ! small: a few lines of one run
     do k = 1, n
       lines(k) = fixed(k)
     end do
@@ -393,7 +395,7 @@ contains
     character(len=read_chunk) :: buf
     character(len=:), allocatable :: cur
     character(len=256) :: msg
-    integer :: u, ios, n, sz, k
+    integer :: u, ios, n, sz, k, ist
     logical :: there, at_end
     inquire (file=path, exist=there)
     if (.not. there) then
@@ -405,7 +407,7 @@ contains
       call set_error(st, DS_ERR_IO, trim(path) // ': cannot open: ' // trim(msg))
       return
     end if
-    allocate (lines(64))
+    allocate (lines(64))                            ! small: fixed size
     n = 0
     at_end = .false.
     do while (.not. at_end)
@@ -434,7 +436,11 @@ contains
       if (at_end .and. len(cur) == 0) exit
       n = n + 1
       if (n > size(lines)) then
-        allocate (grown(2 * size(lines)))
+        allocate (grown(2 * size(lines)), stat=ist)
+        if (alloc_failed(ist, st, 'the lines of ' // trim(path), 2 * size(lines), storage_size(grown) / 8)) then
+          close (u)
+          return
+        end if
         do k = 1, n - 1
           call move_alloc(lines(k)%s, grown(k)%s)
         end do
@@ -443,7 +449,8 @@ contains
       call move_alloc(cur, lines(n)%s)
     end do
     close (u)
-    allocate (grown(n))
+    allocate (grown(n), stat=ist)
+    if (alloc_failed(ist, st, 'the lines of ' // trim(path), n, storage_size(grown) / 8)) return
     do k = 1, n
       call move_alloc(lines(k)%s, grown(k)%s)
     end do
@@ -457,7 +464,7 @@ contains
     type(text_line_t), intent(in) :: lines(:)
     type(group_t), allocatable, intent(out) :: groups(:)
     type(status_t), intent(out) :: st
-    integer :: i, k, g, ng, name_end, nbody
+    integer :: i, k, g, ng, name_end, nbody, ist
     integer, allocatable :: owner(:)       ! group of each kept line's body text
     integer, allocatable :: body_line(:)   ! its line
     type(text_line_t), allocatable :: body(:)
@@ -469,7 +476,7 @@ contains
     inside = .false.
     ng = 0
     nbody = 0
-    allocate (owner(16), body_line(16), body(16), gname(0), gline(0))
+    allocate (owner(16), body_line(16), body(16), gname(0), gline(0))  ! small: fixed size
     do i = 1, size(lines)
       cur = namelist_line(lines(i)%s, i) // ' '  ! (a blank after the end: scans may look one past it)
       k = 1
@@ -478,7 +485,7 @@ contains
         call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(gname(ng)) // ' group of line ' // &
           itoa(gline(ng)) // ' is not closed by ''/'' (line ' // itoa(i) // ' starts another group; expected ' // &
           'a ''/'' at the end of the &' // trim(gname(ng)) // ' group)')
-        allocate (groups(0))
+        allocate (groups(0))                        ! small: empty
         return
       end if
       if (.not. inside) then
@@ -489,7 +496,7 @@ contains
           call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // &
             ': expected the start of a namelist group (&run, &mesh, &solver, &dual, &problem or &adapt), found "' // &
             trim(cur(k:min(len_trim(cur), k + 30))) // '"')
-          allocate (groups(0))
+          allocate (groups(0))                      ! small: empty
           return
         end if
         name_end = k + 1
@@ -523,23 +530,29 @@ contains
       end do
       if (quote /= ' ') then
         call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // ': unterminated string')
-        allocate (groups(0))
+        allocate (groups(0))                        ! small: empty
         return
       end if
       if (len_trim(cur) > 0) then
         nbody = nbody + 1
-        if (nbody > size(owner)) call grow_body()
+        if (nbody > size(owner)) then
+          call grow_body()
+          if (.not. is_ok(st)) return
+        end if
         owner(nbody) = ng
         body_line(nbody) = i
         body(nbody)%s = trim(cur)
       end if
     end do
-    allocate (groups(ng))
+    allocate (groups(ng), stat=ist)
+    if (alloc_failed(ist, st, 'the groups of ' // trim(path), ng, storage_size(groups) / 8)) return
     do g = 1, ng
       groups(g)%name = gname(g)
       groups(g)%line = gline(g)
       groups(g)%text_line = pack(body_line(1:nbody), owner(1:nbody) == g)
-      allocate (groups(g)%text(size(groups(g)%text_line)))
+      allocate (groups(g)%text(size(groups(g)%text_line)), stat=ist)
+      if (alloc_failed(ist, st, 'the text of a group of ' // trim(path), size(groups(g)%text_line), &
+                       storage_size(groups(g)%text) / 8)) return
       k = 0
       do i = 1, nbody
         if (owner(i) /= g) cycle
@@ -556,7 +569,8 @@ contains
     subroutine grow_body()
       type(text_line_t), allocatable :: b2(:)
       integer :: j
-      allocate (b2(2 * size(body)))
+      allocate (b2(2 * size(body)), stat=ist)
+      if (alloc_failed(ist, st, 'the text of ' // trim(path), 2 * size(body), storage_size(b2) / 8)) return
       do j = 1, size(body)
         call move_alloc(body(j)%s, b2(j)%s)
       end do
@@ -605,7 +619,7 @@ contains
     integer, allocatable :: assign_line(:)
     character(len=64) :: name
     character(len=256) :: msg
-    integer :: a, ios, width
+    integer :: a, ios, width, ist
     type(run_config_t) :: probe
     call split_assignments(grp, assign_text, assign_line, st)
     if (st%code /= 0) then
@@ -617,7 +631,8 @@ contains
     do a = 1, size(assign_text)
       width = max(width, len(assign_text(a)%s))
     end do
-    allocate (character(len=width) :: assign(size(assign_text)))
+    allocate (character(len=width) :: assign(size(assign_text)), stat=ist)
+    if (alloc_failed(ist, st, 'the assignments of a group of ' // trim(path), size(assign_text), width)) return
     do a = 1, size(assign_text)
       assign(a) = assign_text(a)%s
     end do
@@ -635,7 +650,7 @@ contains
     if (ios == 0) return
     ! find the assignment whose value does not read (one at a time, copied: gfortran 12
     ! passes a section of a deferred-length array to an assumed-length dummy wrongly)
-    allocate (character(len=width) :: one(1))
+    allocate (character(len=width) :: one(1))      ! small: one assignment
     do a = 1, size(assign)
       probe = cfg
       one(1) = assign(a)
@@ -662,7 +677,7 @@ contains
     integer :: t, k, j, n, depth
     character(len=1) :: quote
     character(len=:), allocatable :: cur
-    allocate (assign(0), assign_line(0))
+    allocate (assign(0), assign_line(0))            ! small: empty
     n = 0
     do t = 1, size(grp%text)
       cur = grp%text(t)%s // ' '          ! (a blank after the end: scans may look one past it)
@@ -696,7 +711,8 @@ contains
           end if
           if (j <= len_trim(cur) .and. cur(j:j) == '=') then
             n = n + 1
-            call append_text(assign, cur(k:))
+            call append_text(assign, cur(k:), st)
+            if (.not. is_ok(st)) return
             assign_line = [assign_line, grp%text_line(t)]
             if (n > 1) then
               if (assign_line(n - 1) == assign_line(n)) call cut_previous(assign(n - 1)%s, cur(k:))
@@ -721,12 +737,14 @@ contains
 
   !> Append a copy of `text` to the list `list` (element by element: gfortran 12 mishandles
   !> some array constructors of derived types with deferred-length components).
-  subroutine append_text(list, text)
+  subroutine append_text(list, text, st)
     type(text_line_t), allocatable, intent(inout) :: list(:)
     character(len=*), intent(in) :: text
+    type(status_t), intent(inout) :: st
     type(text_line_t), allocatable :: grown(:)
-    integer :: j
-    allocate (grown(size(list) + 1))
+    integer :: j, ist
+    allocate (grown(size(list) + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the assignments of a group', size(list) + 1, storage_size(grown) / 8)) return
     do j = 1, size(list)
       call move_alloc(list(j)%s, grown(j)%s)
     end do
@@ -1398,7 +1416,7 @@ contains
       end if
       q = index(names(p:) // ' ', ' ') + p - 2
       b = names(p:q)
-      allocate (d(0:len(a), 0:len(b)))
+      allocate (d(0:len(a), 0:len(b)))              ! small: two names (<= 64 characters)
       d(:, 0) = [(i, i=0, len(a))]
       d(0, :) = [(j, j=0, len(b))]
       do i = 1, len(a)

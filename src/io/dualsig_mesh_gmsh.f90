@@ -28,7 +28,7 @@
 !> the dualsig text reader.  Every error names the file, the line and what was expected.
 module dualsig_mesh_gmsh
   use dualsig_kinds, only: dp, i8, geom_rel_tol
-  use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_INPUT
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t, mesh_diameter
   use dualsig_mesh_io, only: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, &
                              mesh_reader_count_ok, &
@@ -37,6 +37,7 @@ module dualsig_mesh_gmsh
                              mesh_drop_unused_nodes, mesh_mark_boundary, merge_sort_pairs, &
                              mesh_note_len
   use dualsig_strings, only: itoa, rtoa
+  use dualsig_alloc, only: alloc_failed, BYTES_INT
   implicit none
   private
 
@@ -102,8 +103,8 @@ contains
     character(len=mesh_note_len), allocatable :: nt(:)
 
     if (present(nflipped)) nflipped = 0
-    allocate (nt(0))
-    allocate (phys%dim(0), phys%tag(0), phys%name(0))
+    allocate (nt(0))                                    ! small: empty
+    allocate (phys%dim(0), phys%tag(0), phys%name(0))   ! small: empty
     call mesh_reader_open(rd, path, .false., st)
     if (st%code /= 0) then
       if (present(notes)) notes = nt
@@ -127,7 +128,7 @@ contains
     type(status_t), intent(inout) :: st
     integer :: k, j, jany
 
-    allocate (markers(size(names)), source=0)
+    allocate (markers(size(names)), source=0)        ! small: the names of one namelist item
     do k = 1, size(names)
       if (len_trim(names(k)) == 0) cycle
       j = 0
@@ -279,10 +280,11 @@ contains
     type(mesh_text_reader_t), intent(inout) :: rd
     type(gmsh_physical_t), intent(inout) :: phys
     type(status_t), intent(inout) :: st
-    integer :: n, k, q1, q2, d, t
+    integer :: n, k, q1, q2, d, t, ist
     if (.not. count_line(rd, '$PhysicalNames', 'the number of physical names', n, st)) return
     deallocate (phys%dim, phys%tag, phys%name)
-    allocate (phys%dim(n), phys%tag(n), phys%name(n))
+    allocate (phys%dim(n), phys%tag(n), phys%name(n), stat=ist)
+    if (alloc_failed(ist, st, 'the physical names of ' // rd%path, n, 8 + storage_size(phys%name) / 8)) return
     phys%n = n
     do k = 1, n
       if (.not. data_line(rd, '$PhysicalNames', k, n, '<dim> <tag> "<name>"', st)) return
@@ -313,7 +315,7 @@ contains
     type(mesh_text_reader_t), intent(inout) :: rd
     type(gmsh_data_t), intent(inout) :: g
     type(status_t), intent(inout) :: st
-    integer :: counts(4), d, k, np, j, total, v, first_phys
+    integer :: counts(4), d, k, np, j, total, v, first_phys, ist
     real(dp) :: coord
     if (.not. mesh_reader_expect(rd, "'<numPoints> <numCurves> <numSurfaces> <numVolumes>' of $Entities", st)) return
     if (rd%nf /= 4) then
@@ -330,10 +332,10 @@ contains
       if (.not. mesh_reader_count_ok(rd, counts(d), 'the entity count', st)) return
     end do
     g%ncurve = counts(2)
-    allocate (g%curve_tag(counts(2)), g%curve_nphys(counts(2)), g%curve_phys_start(counts(2) + 1))
-    allocate (g%curve_phys(0))
+    allocate (g%curve_tag(counts(2)), g%curve_nphys(counts(2)), g%curve_phys_start(counts(2) + 1), &
+              g%curve_phys(0), g%surf_tag(counts(3)), g%surf_phys(counts(3)), stat=ist)
+    if (alloc_failed(ist, st, 'the entities of ' // rd%path, 3 * counts(2) + 2 * counts(3) + 1, BYTES_INT)) return
     g%curve_phys_start(1) = 1
-    allocate (g%surf_tag(counts(3)), g%surf_phys(counts(3)))
     g%surf_phys = 0
     do d = 0, 3
       do k = 1, counts(d + 1)
@@ -496,12 +498,14 @@ contains
     type(mesh_text_reader_t), intent(inout) :: rd
     type(gmsh_data_t), intent(inout) :: g
     type(status_t), intent(inout) :: st
-    integer :: k, a, b
-    allocate (g%sorted_id(g%nn), g%zero_key(g%nn), g%id_perm(g%nn))
+    integer :: k, a, b, ist
+    allocate (g%sorted_id(g%nn), g%zero_key(g%nn), g%id_perm(g%nn), stat=ist)
+    if (alloc_failed(ist, st, 'the node index of ' // rd%path, 5 * g%nn, BYTES_INT)) return
     g%zero_key = 0
     g%id_perm = [(k, k=1, g%nn)]
     g%sorted_id = g%node_id
-    call merge_sort_pairs(g%sorted_id, g%zero_key, g%id_perm)
+    call merge_sort_pairs(g%sorted_id, g%zero_key, g%id_perm, st)
+    if (.not. is_ok(st)) return
     g%sorted_id = g%sorted_id(g%id_perm)
     do k = 2, g%nn
       if (g%sorted_id(k) == g%sorted_id(k - 1)) then
@@ -652,9 +656,9 @@ contains
   !> Start the element lists.
   subroutine alloc_elements(g)
     type(gmsh_data_t), intent(inout) :: g
-    allocate (g%tri(3, initial_capacity), g%tri_id(initial_capacity), g%tri_line(initial_capacity))
-    allocate (g%tri_phys(initial_capacity))
-    allocate (g%lin(2, initial_capacity), g%lin_phys(initial_capacity), g%lin_line(initial_capacity))
+    allocate (g%tri(3, initial_capacity), g%tri_id(initial_capacity), g%tri_line(initial_capacity))  ! small: fixed
+    allocate (g%tri_phys(initial_capacity))                                                         ! small: fixed
+    allocate (g%lin(2, initial_capacity), g%lin_phys(initial_capacity), g%lin_line(initial_capacity))  ! small: fixed
   end subroutine alloc_elements
 
   !> Keep the element of the current line (a triangle or a line; other types are counted):
@@ -695,14 +699,20 @@ contains
       end if
     end do
     if (etype == type_triangle) then
-      if (g%nt == size(g%tri_id)) call grow_triangles(g)
+      if (g%nt == size(g%tri_id)) then
+        call grow_triangles(g, st)
+        if (.not. is_ok(st)) return
+      end if
       g%nt = g%nt + 1
       g%tri(:, g%nt) = v
       g%tri_id(g%nt) = id
       g%tri_line(g%nt) = rd%lineno
       g%tri_phys(g%nt) = phys
     else
-      if (g%nl == size(g%lin_phys)) call grow_lines(g)
+      if (g%nl == size(g%lin_phys)) then
+        call grow_lines(g, st)
+        if (.not. is_ok(st)) return
+      end if
       g%nl = g%nl + 1
       g%lin(:, g%nl) = v(1:2)
       g%lin_phys(g%nl) = phys
@@ -711,30 +721,33 @@ contains
   end subroutine add_element
 
   !> Double the capacity of the triangle list.
-  subroutine grow_triangles(g)
+  subroutine grow_triangles(g, st)
     type(gmsh_data_t), intent(inout) :: g
-    integer, allocatable :: t2(:,:), i1(:), i2(:)
-    integer :: n
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: t2(:,:), i1(:), i2(:), i3(:)
+    integer :: n, ist
     n = size(g%tri_id)
-    allocate (t2(3, 2 * n), i1(2 * n), i2(2 * n))
+    allocate (t2(3, 2 * n), i1(2 * n), i2(2 * n), i3(2 * n), stat=ist)
+    if (alloc_failed(ist, st, 'the triangles of a Gmsh file', 12 * n, BYTES_INT)) return
     t2(:, 1:n) = g%tri
     i1(1:n) = g%tri_id
     i2(1:n) = g%tri_line
     call move_alloc(t2, g%tri)
     call move_alloc(i1, g%tri_id)
     call move_alloc(i2, g%tri_line)
-    allocate (i1(2 * n))
-    i1(1:n) = g%tri_phys
-    call move_alloc(i1, g%tri_phys)
+    i3(1:n) = g%tri_phys
+    call move_alloc(i3, g%tri_phys)
   end subroutine grow_triangles
 
   !> Double the capacity of the line list.
-  subroutine grow_lines(g)
+  subroutine grow_lines(g, st)
     type(gmsh_data_t), intent(inout) :: g
+    type(status_t), intent(inout) :: st
     integer, allocatable :: t2(:,:), i1(:), i2(:)
-    integer :: n
+    integer :: n, ist
     n = size(g%lin_phys)
-    allocate (t2(2, 2 * n), i1(2 * n), i2(2 * n))
+    allocate (t2(2, 2 * n), i1(2 * n), i2(2 * n), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary lines of a Gmsh file', 8 * n, BYTES_INT)) return
     t2(:, 1:n) = g%lin
     i1(1:n) = g%lin_phys
     i2(1:n) = g%lin_line
@@ -864,7 +877,7 @@ contains
     character(len=mesh_note_len), allocatable, intent(inout) :: notes(:)
     type(status_t), intent(inout) :: st
     integer, allocatable :: new_index(:), keep(:), cand(:,:)
-    integer :: k, ndup, ndropped, nflip, ninterior, nstray, j
+    integer :: k, ndup, ndropped, nflip, ninterior, nstray, j, ist
     real(dp) :: ztol
 
     ! --- skipped element types ---
@@ -891,7 +904,8 @@ contains
     end if
 
     ! --- each triangle once ---
-    call unique_triangles(g, keep, ndup)
+    call unique_triangles(g, keep, ndup, st)
+    if (.not. is_ok(st)) return
     if (ndup > 0) call note(itoa(ndup) // ' triangle(s) listed more than once (a surface in several ' // &
       'physical groups) counted once')
 
@@ -904,13 +918,15 @@ contains
     if (any(g%tri_phys(keep) > 0)) mesh%tri_region = g%tri_phys(keep)   ! the physical surfaces
 
     ! --- nodes of the triangles only ---
-    call mesh_drop_unused_nodes(mesh, new_index, ndropped)
+    call mesh_drop_unused_nodes(mesh, new_index, ndropped, st)
+    if (.not. is_ok(st)) return
     if (ndropped > 0) then
       call note(itoa(ndropped) // ' node(s) used by no triangle dropped (e.g. centres of circle arcs)')
       g%node_line = pack(g%node_line(1:g%nn), new_index > 0)
       g%node_id = pack(g%node_id(1:g%nn), new_index > 0)
     end if
-    allocate (cand(2, g%nl))
+    allocate (cand(2, g%nl), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary lines of ' // path, 2 * g%nl, BYTES_INT)) return
     do k = 1, g%nl
       cand(:, k) = new_index(g%lin(:, k))
     end do
@@ -982,15 +998,18 @@ contains
 
   !> Positions of the triangles to keep: the first of every set of triangles with the same
   !> three nodes; ndup counts the others.  Sorting: O(T log T).
-  subroutine unique_triangles(g, keep, ndup)
+  subroutine unique_triangles(g, keep, ndup, st)
     type(gmsh_data_t), intent(in) :: g
     integer, allocatable, intent(out) :: keep(:)
     integer, intent(out) :: ndup
+    type(status_t), intent(inout) :: st
     integer(i8), allocatable :: kx(:), ky(:)
     integer, allocatable :: perm(:)
     logical, allocatable :: dup(:)
-    integer :: t, p, v(3)
-    allocate (kx(g%nt), ky(g%nt), perm(g%nt), dup(g%nt))
+    integer :: t, p, v(3), ist
+    ndup = 0
+    allocate (kx(g%nt), ky(g%nt), perm(g%nt), dup(g%nt), stat=ist)
+    if (alloc_failed(ist, st, 'the triangle keys of a Gmsh file', 6 * g%nt, BYTES_INT)) return
     do t = 1, g%nt
       v = g%tri(:, t)
       call sort3(v)
@@ -998,7 +1017,8 @@ contains
       ky(t) = int(v(2), i8) * (int(g%nn, i8) + 1) + v(3)
       perm(t) = t
     end do
-    call merge_sort_pairs(kx, ky, perm)          ! stable: the first listed comes first
+    call merge_sort_pairs(kx, ky, perm, st)      ! stable: the first listed comes first
+    if (.not. is_ok(st)) return
     dup = .false.
     do p = 2, g%nt
       if (kx(perm(p)) == kx(perm(p - 1)) .and. ky(perm(p)) == ky(perm(p - 1))) dup(perm(p)) = .true.

@@ -47,11 +47,12 @@
 module dualsig_mesh_io
   use, intrinsic :: iso_fortran_env, only: iostat_end, iostat_eor
   use dualsig_kinds, only: dp, i8, geom_rel_tol
-  use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_IO
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH, DS_ERR_IO
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
   use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_strings, only: itoa
   use dualsig_io_files, only: regular_file_size
+  use dualsig_alloc, only: alloc_failed, alloc_check, BYTES_INT
   implicit none
   private
 
@@ -371,7 +372,7 @@ contains
 
     n = 0
     cap = chunk_len
-    allocate (character(len=cap) :: buf)
+    allocate (character(len=cap) :: buf)          ! small: chunk_len characters
     do
       sz = 0
       read (u, '(a)', advance='no', iostat=ios, iomsg=iom, size=sz) chunk
@@ -793,7 +794,7 @@ contains
     integer, intent(in), optional :: node_id(:)   !! the node ids of the file (default 1, 2, ...)
     integer(i8), allocatable :: kx(:), ky(:)
     integer, allocatable :: perm(:)
-    integer :: nn, i, j, p, q, dx
+    integer :: nn, i, j, p, q, dx, ist
     real(dp) :: tol, cell, xmin, ymin
 
     nn = mesh%nnode
@@ -806,13 +807,15 @@ contains
     cell = 2.0_dp * tol
     xmin = minval(mesh%xy(1, 1:nn))
     ymin = minval(mesh%xy(2, 1:nn))
-    allocate (kx(nn), ky(nn), perm(nn))
+    allocate (kx(nn), ky(nn), perm(nn), stat=ist)
+    if (alloc_failed(ist, st, 'the node keys of ' // rd%path, 5 * nn, BYTES_INT)) return
     do i = 1, nn
       kx(i) = floor((mesh%xy(1, i) - xmin) / cell, i8)
       ky(i) = floor((mesh%xy(2, i) - ymin) / cell, i8)
       perm(i) = i
     end do
-    call merge_sort_pairs(kx, ky, perm)
+    call merge_sort_pairs(kx, ky, perm, st)
+    if (.not. is_ok(st)) return
     do p = 1, nn
       i = perm(p)
       do dx = 0, 1
@@ -876,13 +879,16 @@ contains
 
   !> Sort the permutation `perm` by the pairs (kx, ky) lexicographically: bottom-up merge
   !> sort, O(N log N), stable.
-  pure subroutine merge_sort_pairs(kx, ky, perm)
+  pure subroutine merge_sort_pairs(kx, ky, perm, st)
     integer(i8), intent(in) :: kx(:), ky(:)
     integer, intent(inout) :: perm(:)
+    type(status_t), intent(inout) :: st          !! out of memory: DS_ERR_MEMORY, perm unsorted
     integer, allocatable :: tmp(:)
-    integer :: n, width, lo, mid, hi, a, b, k
+    integer :: n, width, lo, mid, hi, a, b, k, ist
     n = size(perm)
-    allocate (tmp(n))
+    allocate (tmp(n), stat=ist)
+    call alloc_check(ist, st, 'the sort of a mesh file', n, BYTES_INT)
+    if (ist /= 0) return
     width = 1
     do while (width < n)
       lo = 1
@@ -953,7 +959,7 @@ contains
     character(len=256) :: iom
     rd%path = path
     rd%hash_comments = hash_comments
-    allocate (rd%fb(initial_field_slots), rd%fe(initial_field_slots))
+    allocate (rd%fb(initial_field_slots), rd%fe(initial_field_slots))   ! small: fixed size
     if (.not. input_file_ok(path, rd%nbytes, st)) return
     iom = ''
     open (newunit=rd%unit, file=path, status='old', action='read', form='formatted', &
@@ -979,7 +985,7 @@ contains
     type(mesh_text_reader_t), intent(inout) :: rd
     logical, intent(out) :: found
     type(status_t), intent(inout) :: st
-    integer :: ios, k, p, b, e
+    integer :: ios, k, p, b, e, ist
     integer, allocatable :: grown(:)
     character(len=256) :: iom
 
@@ -1003,10 +1009,12 @@ contains
         if (.not. next_field(rd%line, p, b, e)) exit
         rd%nf = rd%nf + 1
         if (rd%nf > size(rd%fb)) then
-          allocate (grown(2 * size(rd%fb)))
+          allocate (grown(2 * size(rd%fb)), stat=ist)
+          if (alloc_failed(ist, st, 'the fields of a line of ' // rd%path, 2 * size(rd%fb), BYTES_INT)) return
           grown(1:size(rd%fb)) = rd%fb
           call move_alloc(grown, rd%fb)
-          allocate (grown(2 * size(rd%fe)))
+          allocate (grown(2 * size(rd%fe)), stat=ist)
+          if (alloc_failed(ist, st, 'the fields of a line of ' // rd%path, 2 * size(rd%fe), BYTES_INT)) return
           grown(1:size(rd%fe)) = rd%fe
           call move_alloc(grown, rd%fe)
         end if
@@ -1197,15 +1205,20 @@ contains
 
   !> Remove the nodes that no triangle uses (renumbering the rest in their order).
   !> new_index(i) is the new number of old node i, 0 when it was removed; ndropped counts
-  !> the removed nodes.
-  subroutine mesh_drop_unused_nodes(mesh, new_index, ndropped)
+  !> the removed nodes.  Out of memory: DS_ERR_MEMORY in st (without st the program stops,
+  !> see dualsig_alloc).
+  subroutine mesh_drop_unused_nodes(mesh, new_index, ndropped, st)
     type(mesh_t), intent(inout) :: mesh
     integer, allocatable, intent(out) :: new_index(:)
     integer, intent(out) :: ndropped
+    type(status_t), intent(inout), optional :: st
     logical, allocatable :: used(:)
-    integer :: i, k, t, n
-    allocate (used(mesh%nnode), source=.false.)
-    allocate (new_index(mesh%nnode), source=0)
+    integer :: i, k, t, n, ist
+    ndropped = 0
+    allocate (used(mesh%nnode), new_index(mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the used nodes of the mesh', 2 * mesh%nnode, BYTES_INT)) return
+    used = .false.
+    new_index = 0
     do t = 1, mesh%ntri
       do k = 1, 3
         used(mesh%tri(k, t)) = .true.
@@ -1249,13 +1262,14 @@ contains
     type(status_t), intent(inout) :: st
     integer(i8), allocatable :: kx(:), ky(:), ux(:), uy(:)
     integer, allocatable :: perm(:), mult(:), marker(:), mline(:), ident(:)
-    integer :: nt, t, k, p, i, nu, c, q, nb, nunmarked, first
+    integer :: nt, t, k, p, i, nu, c, q, nb, nunmarked, first, ist
     integer(i8) :: lo, hi
 
     ninterior = 0
     nstray = 0
     nt = mesh%ntri
-    allocate (kx(3 * nt), ky(3 * nt), perm(3 * nt))
+    allocate (kx(3 * nt), ky(3 * nt), perm(3 * nt), ux(3 * nt), uy(3 * nt), mult(3 * nt), stat=ist)
+    if (alloc_failed(ist, st, 'the sides of the triangles of ' // path, 30 * nt, BYTES_INT)) return
     do t = 1, nt
       do k = 1, 3
         i = 3 * (t - 1) + k
@@ -1264,9 +1278,9 @@ contains
         perm(i) = i
       end do
     end do
-    call merge_sort_pairs(kx, ky, perm)
+    call merge_sort_pairs(kx, ky, perm, st)
+    if (.not. is_ok(st)) return
     ! distinct sides (sorted) and the number of triangles sharing each
-    allocate (ux(3 * nt), uy(3 * nt), mult(3 * nt))
     nu = 0
     do p = 1, 3 * nt
       i = perm(p)
@@ -1281,7 +1295,8 @@ contains
       uy(nu) = ky(i)
       mult(nu) = 1
     end do
-    allocate (ident(nu), marker(nu), mline(nu))
+    allocate (ident(nu), marker(nu), mline(nu), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary sides of ' // path, 3 * nu, BYTES_INT)) return
     ident = [(p, p=1, nu)]
     marker = 0
     mline = 0
@@ -1332,7 +1347,8 @@ contains
     end if
     if (allocated(mesh%bedge_nodes)) deallocate (mesh%bedge_nodes)
     if (allocated(mesh%bedge_marker)) deallocate (mesh%bedge_marker)
-    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb))
+    allocate (mesh%bedge_nodes(2, nb), mesh%bedge_marker(nb), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary edges of ' // path, 3 * nb, BYTES_INT)) return
     mesh%nbedge = nb
     k = 0
     do q = 1, nu

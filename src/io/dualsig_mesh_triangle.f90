@@ -102,7 +102,7 @@ contains
     character(len=:), allocatable :: what
 
     if (present(nflipped)) nflipped = 0
-    allocate (nt(0))
+    allocate (nt(0))                                ! small: empty
     call triangle_base_name(path, base, is_triangle)
     inquire (file=base // '.poly', exist=has_poly)
     inquire (file=base // '.edge', exist=has_edge)
@@ -159,7 +159,8 @@ contains
     ! --- mesh ---
     mesh%nnode = nodes%n
     call move_alloc(nodes%xy, mesh%xy)
-    call mesh_drop_unused_nodes(mesh, new_index, ndropped)
+    call mesh_drop_unused_nodes(mesh, new_index, ndropped, st)
+    if (st%code /= 0) return
     if (ndropped > 0) then
       nt = [character(len=mesh_note_len) :: nt, itoa(ndropped) // ' node(s) used by no triangle dropped']
       nodes%line = pack(nodes%line, new_index > 0)
@@ -289,7 +290,13 @@ contains
       return
     end if
     mesh%ntri = nt
-    if (nattr > 0) allocate (mesh%tri_region(nt))
+    if (nattr > 0) then
+      allocate (mesh%tri_region(nt), stat=istat)
+      if (istat /= 0) then
+        call mesh_reader_fail(rd, 'cannot allocate the regions of ' // itoa(nt) // ' triangles (expected a smaller count)', st)
+        return
+      end if
+    end if
     base = -1
     do k = 1, nt
       if (.not. entry_line(rd, k, nt, layout, 4 + nattr, st)) return
@@ -327,7 +334,7 @@ contains
     character(len=:), allocatable :: header, layout
 
     nbmark = 0
-    allocate (cand(2, 0), cand_marker(0), cand_line(0))
+    allocate (cand(2, 0), cand_marker(0), cand_line(0))   ! small: empty
     header = "'<n" // kind // "s> <nbmark>'"
     if (.not. mesh_reader_expect(rd, 'the ' // kind // ' header ' // header, st)) return
     if (rd%nf /= 2) then

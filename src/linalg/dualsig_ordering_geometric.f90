@@ -15,7 +15,8 @@
 module dualsig_ordering_geometric
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: csr_t
-  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL, BYTES_LOGICAL
   use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GIVEN, ORDERING_GEOMETRIC
   use dualsig_strings, only: itoa
   implicit none
@@ -43,12 +44,12 @@ contains
     integer, allocatable :: list(:), stamp(:)
     real(dp), allocatable :: pts(:,:)
     real(dp) :: reach(2)
-    integer :: n, i, p, next_stamp
+    integer :: n, i, p, next_stamp, ist
     n = a%n
     if (size(xy, 1) /= 2 .or. size(xy, 2) /= n) then
       call set_error(st, DS_ERR_INPUT, 'geometric_nested_dissection: xy must be (2, ' // itoa(n) // &
         '), got (' // itoa(size(xy, 1)) // ', ' // itoa(size(xy, 2)) // ')')
-      allocate (perm(0))
+      allocate (perm(0))                  ! small: empty
       return
     end if
     ! reach(axis): the longest extent of a graph edge along the axis; an unknown farther than
@@ -59,12 +60,14 @@ contains
         reach = max(reach, abs(xy(:, a%col(p)) - xy(:, i)))
       end do
     end do
-    allocate (perm(n), stamp(n), source=0)
-    allocate (list(n))
+    allocate (perm(n), stamp(n), list(n), pts(2, n), stat=ist)
+    if (alloc_failed(ist, st, 'the nested dissection ordering', 3 * n + 4 * n, BYTES_INT)) return
+    perm = 0
+    stamp = 0
     do i = 1, n
       list(i) = i
     end do
-    pts = xy
+    pts(:, :) = xy
     next_stamp = 0
     call dissect(list, pts, 1)
 
@@ -76,7 +79,7 @@ contains
       integer, intent(inout) :: set(:)
       real(dp), intent(inout) :: p(:,:)
       integer, intent(in) :: first
-      integer :: m, half, axis, j, na, nb, nsep, ia, ib, is, s_low, s_high, side
+      integer :: m, half, axis, j, na, nb, nsep, ia, ib, is, s_low, s_high, side, ist
       integer, allocatable :: part_a(:), part_b(:), sep(:)
       real(dp), allocatable :: pa(:,:), pb(:,:)
       logical, allocatable :: touches(:)
@@ -108,7 +111,8 @@ contains
       stamp(set(half + 1:m)) = s_high
       ! the unknowns of each half coupled to the other half (only those within reach of the
       ! split are examined): the smaller set is the separator
-      allocate (touches(m))
+      allocate (touches(m), stat=ist)
+      if (alloc_failed(ist, st, 'a nested dissection level', m, BYTES_LOGICAL)) return
       do j = 1, half
         touches(j) = split_hi - p(axis, j) <= reach(axis)
         if (touches(j)) touches(j) = coupled(set(j), s_high)
@@ -128,7 +132,8 @@ contains
         na = half
         nb = m - half - nsep
       end if
-      allocate (part_a(na), part_b(nb), sep(nsep), pa(2, na), pb(2, nb))
+      allocate (part_a(na), part_b(nb), sep(nsep), pa(2, na), pb(2, nb), stat=ist)
+      if (alloc_failed(ist, st, 'a nested dissection level', 5 * m, BYTES_REAL)) return
       ia = 0
       ib = 0
       is = 0
@@ -150,6 +155,7 @@ contains
       ! the separator last, the two parts before it
       perm(first + na + nb:first + m - 1) = sep
       if (na > 0) call dissect(part_a, pa, first)
+      if (.not. is_ok(st)) return
       deallocate (pa)
       if (nb > 0) call dissect(part_b, pb, first + na)
     end subroutine dissect

@@ -29,6 +29,7 @@ module dualsig_patch_schwarz
   use dualsig_spd_solver, only: cholmod_spd_t
   use dualsig_status, only: status_t, set_error, DS_ERR_NUMERIC, DS_ERR_MEMORY
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -152,23 +153,27 @@ contains
   end subroutine mg_free
 
   !> z = B r, B the symmetric V-cycle of level l (truncated to `free` at level top).
-  recursive subroutine vcycle(h, l, top, r, z)
+  !> Out of memory: DS_ERR_MEMORY in st.
+  recursive subroutine vcycle(h, l, top, r, z, st)
     type(mg_hierarchy_t), intent(in) :: h
     integer, intent(in) :: l, top
     real(dp), intent(in) :: r(:)
     real(dp), intent(out) :: z(:)
+    type(status_t), intent(inout) :: st
     real(dp), allocatable :: res(:), rc(:), zc(:), dz(:), rm(:)
     logical, allocatable :: act(:)
-    type(status_t) :: st
+    type(status_t) :: st_coarse
+    integer :: ist
     if (l == 1) then
       res = merge(r, 0.0_dp, .not. h%lev(1)%held)
-      call h%coarse%solve(res, z, st)
+      call h%coarse%solve(res, z, st_coarse)
       return
     end if
     act = .not. h%lev(l)%held
     rm = merge(r, 0.0_dp, act)
     associate (lv => h%lev(l))
-      allocate (res(lv%a%n), dz(lv%a%n), rc(lv%p%n), zc(lv%p%n))
+      allocate (res(lv%a%n), dz(lv%a%n), rc(lv%p%n), zc(lv%p%n), stat=ist)
+      if (alloc_failed(ist, st, 'a level of the V-cycle', 2 * (lv%a%n + lv%p%n), BYTES_REAL)) return
       call smooth(lv, rm, z)
       z = smoother_damping * z
       where (.not. act) z = 0.0_dp
@@ -176,7 +181,8 @@ contains
       res = rm - res
       where (.not. act) res = 0.0_dp
       call rect_matvec_t(lv%p, res, rc)
-      call vcycle(h, l - 1, top, rc, zc)
+      call vcycle(h, l - 1, top, rc, zc, st)
+      if (st%code /= 0) return
       call rect_matvec(lv%p, zc, dz)
       where (.not. act) dz = 0.0_dp
       z = z + dz
@@ -239,7 +245,7 @@ contains
       if (allocated(blk)) then
         if (size(blk, 1) < m) deallocate (blk)
       end if
-      if (.not. allocated(blk)) allocate (blk(m, m))
+      if (.not. allocated(blk)) allocate (blk(m, m))   ! small: one vertex patch
       do k = 1, m
         pos(idx(ptr(p) + k - 1)) = k
       end do
@@ -331,8 +337,8 @@ contains
   !> Preconditioned CG (the V-cycle of h) for min J(x) = 1/2 x^T A x - b^T x, A the finest
   !> matrix of h, over the unknowns with free(i); the others keep their values in x.  Stops
   !> when the decrease of J in a step is at most rel (J(x) - j_floor), or after max_iter
-  !> steps (converged false).  h has at least two levels.
-  subroutine pcg_quadratic(h, b, free, j_floor, rel, max_iter, x, res)
+  !> steps (converged false).  h has at least two levels.  Out of memory: DS_ERR_MEMORY in st.
+  subroutine pcg_quadratic(h, b, free, j_floor, rel, max_iter, x, res, st)
     type(mg_hierarchy_t), intent(in) :: h
     real(dp), intent(in) :: b(:)
     logical, intent(in) :: free(:)
@@ -340,16 +346,19 @@ contains
     integer, intent(in) :: max_iter
     real(dp), intent(inout) :: x(:)
     type(pcg_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
     real(dp), allocatable :: r(:), z(:), p(:), ap(:)
     real(dp) :: rz, rz_new, alpha, beta, pap, jx
-    integer :: k
+    integer :: k, ist
     associate (a => h%lev(h%nlevel)%a)
-    allocate (r(a%n), z(a%n), p(a%n), ap(a%n))
+    allocate (r(a%n), z(a%n), p(a%n), ap(a%n), stat=ist)
+    if (alloc_failed(ist, st, 'the conjugate gradient vectors', 4 * a%n, BYTES_REAL)) return
     call csr_matvec(a, x, ap)
     jx = 0.5_dp * dot_product(x, ap) - dot_product(b, x)
     r = b - ap
     where (.not. free) r = 0.0_dp
-    call vcycle(h, h%nlevel, h%nlevel, r, z)
+    call vcycle(h, h%nlevel, h%nlevel, r, z, st)
+    if (st%code /= 0) return
     p = z
     rz = dot_product(r, z)
     do k = 1, max_iter
@@ -371,7 +380,8 @@ contains
         res%converged = .true.
         exit
       end if
-      call vcycle(h, h%nlevel, h%nlevel, r, z)
+      call vcycle(h, h%nlevel, h%nlevel, r, z, st)
+      if (st%code /= 0) return
       rz_new = dot_product(r, z)
       beta = rz_new / rz
       rz = rz_new

@@ -5,6 +5,8 @@
 !> Symmetric matrices store both triangles.
 module dualsig_sparse
   use dualsig_kinds, only: dp
+  use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -39,14 +41,17 @@ contains
 
   !> Pattern of the graph "node i couples with itself and with its edge neighbours",
   !> values zero.  `edges(2, nedge)` lists each undirected edge once.  Linear time.
-  subroutine csr_pattern_from_edges(n, edges, a)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine csr_pattern_from_edges(n, edges, a, st)
     integer, intent(in) :: n
     integer, intent(in) :: edges(:,:)
     type(csr_t), intent(out) :: a
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: fill(:)
-    integer :: e, i, j, k, p, tmp
+    integer :: e, i, j, k, p, tmp, ist
     a%n = n
-    allocate (a%rowptr(n + 1), a%diag(n), fill(n))
+    allocate (a%rowptr(n + 1), a%diag(n), fill(n), stat=ist)
+    if (alloc_failed(ist, st, 'the rows of a sparse matrix', 3 * n, BYTES_INT)) return
     a%rowptr = 0
     a%rowptr(1) = 1
     fill = 1                               ! the diagonal
@@ -57,7 +62,8 @@ contains
     do i = 1, n
       a%rowptr(i + 1) = a%rowptr(i) + fill(i)
     end do
-    allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1))
+    allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the entries of a sparse matrix', 3 * (a%rowptr(n + 1) - 1), BYTES_INT)) return
     a%val = 0.0_dp
     fill = 0
     do i = 1, n
@@ -93,25 +99,29 @@ contains
   !> Pattern in which all indices listed in one column of cliques(k, m) couple with each
   !> other (element matrices: each column holds the unknowns of one element); duplicates
   !> across cliques are merged, the diagonal is always present, values zero.
-  subroutine csr_pattern_from_cliques(n, cliques, a)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine csr_pattern_from_cliques(n, cliques, a, st)
     integer, intent(in) :: n
     integer, intent(in) :: cliques(:,:)
     type(csr_t), intent(out) :: a
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: cap(:), start(:), fill(:), cols(:)
-    integer :: k, m, c, r, i, p, q, nk, tmp
+    integer :: k, m, c, r, i, p, q, nk, tmp, ist
     nk = size(cliques, 1)
-    allocate (cap(n), source=1)
+    allocate (cap(n), start(n + 1), fill(n), stat=ist)
+    if (alloc_failed(ist, st, 'the row counts of a sparse matrix', 3 * n, BYTES_INT)) return
+    cap = 1
     do c = 1, size(cliques, 2)
       do r = 1, nk
         cap(cliques(r, c)) = cap(cliques(r, c)) + nk
       end do
     end do
-    allocate (start(n + 1), fill(n))
     start(1) = 1
     do i = 1, n
       start(i + 1) = start(i) + cap(i)
     end do
-    allocate (cols(start(n + 1) - 1))
+    allocate (cols(start(n + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the pattern of a sparse matrix', start(n + 1) - 1, BYTES_INT)) return
     do i = 1, n
       cols(start(i)) = i
       fill(i) = 1
@@ -127,7 +137,8 @@ contains
     end do
     ! sort each row, drop duplicates
     a%n = n
-    allocate (a%rowptr(n + 1), a%diag(n))
+    allocate (a%rowptr(n + 1), a%diag(n), stat=ist)
+    if (alloc_failed(ist, st, 'the rows of a sparse matrix', 2 * n, BYTES_INT)) return
     a%rowptr(1) = 1
     do i = 1, n
       do p = start(i) + 1, start(i) + fill(i) - 1
@@ -150,7 +161,8 @@ contains
       fill(i) = k
       a%rowptr(i + 1) = a%rowptr(i) + k
     end do
-    allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1))
+    allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the entries of a sparse matrix', 3 * (a%rowptr(n + 1) - 1), BYTES_INT)) return
     a%val = 0.0_dp
     do i = 1, n
       a%col(a%rowptr(i):a%rowptr(i + 1) - 1) = cols(start(i):start(i) + fill(i) - 1)
@@ -198,16 +210,20 @@ contains
 
   !> Rectangular m x n matrix from rows given as (row, col, value) triplets sorted by row
   !> (duplicates within a row are summed).
-  subroutine rect_from_triplets(m, n, row, col, val, b)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine rect_from_triplets(m, n, row, col, val, b, st)
     integer, intent(in) :: m, n
     integer, intent(in) :: row(:), col(:)
     real(dp), intent(in) :: val(:)
     type(rect_t), intent(out) :: b
-    integer :: k, i, p, q, tmp_c
+    type(status_t), intent(out), optional :: st
+    integer :: k, i, p, q, tmp_c, ist
+    integer, allocatable :: fill(:)
     real(dp) :: tmp_v
     b%m = m
     b%n = n
-    allocate (b%rowptr(m + 1), b%col(size(row)), b%val(size(row)))
+    allocate (b%rowptr(m + 1), fill(m), b%col(size(row)), b%val(size(row)), stat=ist)
+    if (alloc_failed(ist, st, 'a constraint matrix', 2 * m + 3 * size(row), BYTES_INT)) return
     b%rowptr = 0
     do k = 1, size(row)
       b%rowptr(row(k) + 1) = b%rowptr(row(k) + 1) + 1
@@ -216,16 +232,13 @@ contains
     do i = 1, m
       b%rowptr(i + 1) = b%rowptr(i + 1) + b%rowptr(i)
     end do
-    block
-      integer :: fill(m)
-      fill = 0
-      do k = 1, size(row)
-        p = b%rowptr(row(k)) + fill(row(k))
-        b%col(p) = col(k)
-        b%val(p) = val(k)
-        fill(row(k)) = fill(row(k)) + 1
-      end do
-    end block
+    fill = 0
+    do k = 1, size(row)
+      p = b%rowptr(row(k)) + fill(row(k))
+      b%col(p) = col(k)
+      b%val(p) = val(k)
+      fill(row(k)) = fill(row(k)) + 1
+    end do
     do i = 1, m                             ! sort each short row by column
       do p = b%rowptr(i) + 1, b%rowptr(i + 1) - 1
         tmp_c = b%col(p)

@@ -29,6 +29,7 @@ module dualsig_sparse_direct
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC, DS_ERR_MEMORY
   use dualsig_sparse, only: csr_t
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_INT
   implicit none
   private
 
@@ -300,6 +301,7 @@ contains
     type(status_t), intent(out) :: st       !! DS_OK or an error
     integer(c_int), allocatable :: colptr(:), rowind(:), perm0(:)
     integer(c_int) :: code
+    integer :: ist
     if (ordering < ORDERING_BEST .or. ordering > ORDERING_METIS) then
       call set_error(st, DS_ERR_INPUT, 'cholesky_order: ordering code ' // itoa(ordering) // &
                      ' (expected 0 best, 1 amd, 2 metis)')
@@ -308,7 +310,8 @@ contains
     if (.not. pattern_ok(a, st)) return
     colptr = int(a%rowptr - 1, c_int)
     rowind = int(a%col - 1, c_int)
-    allocate (perm0(max(a%n, 1)))
+    allocate (perm0(max(a%n, 1)), stat=ist)
+    if (alloc_failed(ist, st, 'the fill-reducing ordering', max(a%n, 1), BYTES_INT)) return
     code = shim_order(int(a%n, c_int), colptr, rowind, int(ordering, c_int), perm0)
     if (code /= SHIM_OK) then
       call shim_error(st, code, -1, a%n)
@@ -325,11 +328,13 @@ contains
     type(status_t), intent(out) :: st       !! DS_OK or an error
     integer(c_int), allocatable :: perm0(:)
     integer(c_int) :: code
+    integer :: ist
     if (.not. c_associated(chol%handle)) then
       call set_error(st, DS_ERR_INPUT, 'cholesky_permutation: no factor')
       return
     end if
-    allocate (perm0(max(chol%n, 1)))
+    allocate (perm0(max(chol%n, 1)), stat=ist)
+    if (alloc_failed(ist, st, 'the elimination order', max(chol%n, 1), BYTES_INT)) return
     code = shim_perm(chol%handle, perm0)
     if (code /= SHIM_OK) then
       call shim_error(st, code, -1, chol%n)

@@ -7,6 +7,7 @@ module dualsig_spectral
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: csr_t
   use dualsig_status, only: status_t, set_error, DS_ERR_LAPACK, DS_ERR_NUMERIC
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -30,14 +31,15 @@ contains
     type(status_t), intent(out) :: st
     real(dp), allocatable :: v(:), v_old(:), w(:), dinv_sqrt(:), alpha(:), beta(:), d(:), e(:)
     real(dp) :: b, lmin_old, s
-    integer :: i, p, k, info, n, nact
+    integer :: i, p, k, info, n, nact, ist
     n = a%n
     nact = count(active)
     lmin = 1.0_dp
     lmax = 1.0_dp
     steps = 0
     if (nact == 0) return
-    allocate (v(n), v_old(n), w(n), dinv_sqrt(n), alpha(max_steps), beta(max_steps))
+    allocate (v(n), v_old(n), w(n), dinv_sqrt(n), alpha(max_steps), beta(max_steps), stat=ist)
+    if (alloc_failed(ist, st, 'the Lanczos vectors', 4 * n + 2 * max_steps, BYTES_REAL)) return
     do i = 1, n
       if (a%val(a%diag(i)) <= 0.0_dp) then
         call set_error(st, DS_ERR_NUMERIC, 'spectral estimate: non-positive diagonal entry')

@@ -13,8 +13,9 @@
 !> - A boundary node is a polygon corner when the directions of its incoming and
 !>   outgoing boundary edges differ (sine of the angle > corner_sin_tol).
 module dualsig_mesh
-  use dualsig_kinds, only: dp, corner_sin_tol, geom_rel_tol
+  use dualsig_kinds, only: dp, i8, corner_sin_tol, geom_rel_tol
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL, BYTES_LOGICAL
   implicit none
   private
 
@@ -130,8 +131,8 @@ contains
     if (st%code == 0) call build_edges(mesh, tab, st, bad)
     if (st%code == 0) then
       ! every node must be a vertex (an unused node has no basis function support)
-      call mark_vertices(mesh, used)
-      call match_boundary_edges(mesh, tab, used, bedge_of_edge, st, bad)
+      call mark_vertices(mesh, used, st)
+      if (st%code == 0) call match_boundary_edges(mesh, tab, used, bedge_of_edge, st, bad)
     end if
     if (st%code == 0) call check_all_listed(mesh, bedge_of_edge, st, bad)
     if (st%code == 0) call check_nodes_used(mesh, used, st, bad)
@@ -186,10 +187,12 @@ contains
     type(edge_table_t), intent(inout) :: tab
     type(status_t), intent(inout) :: st
     type(culprit_t), intent(inout) :: bad
-    integer :: t, k, a, b, lo, hi, e, j, ne, p
+    integer :: t, k, a, b, lo, hi, e, j, ne, p, ist
     character(len=320) :: buf
 
-    allocate (tab%cnt(mesh%nnode + 1), source=0)
+    allocate (tab%cnt(mesh%nnode + 1), tab%head(mesh%nnode + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the node table of the edges', 2 * mesh%nnode + 2, BYTES_INT)) return
+    tab%cnt = 0
     do t = 1, mesh%ntri
       do k = 1, 3
         a = mesh%tri(k, t)
@@ -198,16 +201,16 @@ contains
         tab%cnt(lo + 1) = tab%cnt(lo + 1) + 1
       end do
     end do
-    allocate (tab%head(mesh%nnode + 1))
     tab%head(1) = 1
     do j = 1, mesh%nnode
       tab%head(j + 1) = tab%head(j) + tab%cnt(j + 1)
     end do
     tab%cnt = 0          ! now: number of distinct edges stored in bucket j
-    allocate (tab%bucket_other(3 * mesh%ntri), tab%bucket_edge(3 * mesh%ntri))
-    allocate (mesh%tri_edge(3, mesh%ntri), tab%edge_local(2, 3 * mesh%ntri))
+    allocate (tab%bucket_other(3 * mesh%ntri), tab%bucket_edge(3 * mesh%ntri), mesh%tri_edge(3, mesh%ntri), &
+              tab%edge_local(2, 3 * mesh%ntri), mesh%edge_nodes(2, 3 * mesh%ntri), mesh%edge_tri(2, 3 * mesh%ntri), &
+              stat=ist)
+    if (alloc_failed(ist, st, 'the edges of the mesh', 39_i8 * mesh%ntri, BYTES_INT)) return
     ne = 0
-    allocate (mesh%edge_nodes(2, 3 * mesh%ntri), mesh%edge_tri(2, 3 * mesh%ntri))
     mesh%edge_tri = 0
     do t = 1, mesh%ntri
       do k = 1, 3
@@ -252,11 +255,14 @@ contains
   end subroutine build_edges
 
   !> used(j): node j is a vertex of some triangle.
-  subroutine mark_vertices(mesh, used)
+  subroutine mark_vertices(mesh, used, st)
     type(mesh_t), intent(in) :: mesh
     logical, allocatable, intent(out) :: used(:)
-    integer :: t
-    allocate (used(mesh%nnode), source=.false.)
+    type(status_t), intent(inout) :: st
+    integer :: t, ist
+    allocate (used(mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the node flags of the mesh', mesh%nnode, BYTES_LOGICAL)) return
+    used = .false.
     do t = 1, mesh%ntri
       used(mesh%tri(:, t)) = .true.
     end do
@@ -273,13 +279,14 @@ contains
     integer, allocatable, intent(out) :: bedge_of_edge(:)
     type(status_t), intent(inout) :: st
     type(culprit_t), intent(inout) :: bad
-    integer :: t, k, a, b, lo, hi, e, j
+    integer :: t, k, a, b, lo, hi, e, j, ist
     real(dp) :: d(2)
     character(len=320) :: buf
 
-    allocate (bedge_of_edge(mesh%nedge), source=0)
-    allocate (mesh%bedge_edge(mesh%nbedge), mesh%bedge_tri(mesh%nbedge), &
-              mesh%bedge_normal(2, mesh%nbedge), mesh%bedge_length(mesh%nbedge))
+    allocate (bedge_of_edge(mesh%nedge), mesh%bedge_edge(mesh%nbedge), mesh%bedge_tri(mesh%nbedge), &
+              mesh%bedge_normal(2, mesh%nbedge), mesh%bedge_length(mesh%nbedge), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary edges of the mesh', mesh%nedge + 5 * mesh%nbedge, BYTES_REAL)) return
+    bedge_of_edge = 0
     do j = 1, mesh%nbedge
       a = mesh%bedge_nodes(1, j)
       b = mesh%bedge_nodes(2, j)
@@ -432,9 +439,12 @@ contains
   subroutine link_boundary_nodes(mesh, st)
     type(mesh_t), intent(inout) :: mesh
     type(status_t), intent(inout) :: st
-    integer :: j, a, b
+    integer :: j, a, b, ist
     character(len=320) :: buf
-    allocate (mesh%node_bedge_in(mesh%nnode), mesh%node_bedge_out(mesh%nnode), source=0)
+    allocate (mesh%node_bedge_in(mesh%nnode), mesh%node_bedge_out(mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary links of the nodes', 2 * mesh%nnode, BYTES_INT)) return
+    mesh%node_bedge_in = 0
+    mesh%node_bedge_out = 0
     do j = 1, mesh%nbedge
       a = mesh%bedge_nodes(1, j)
       b = mesh%bedge_nodes(2, j)
@@ -456,10 +466,11 @@ contains
     type(mesh_t), intent(inout) :: mesh
     integer, intent(inout) :: visited(:)
     type(status_t), intent(inout) :: st
-    integer :: nb, p, l, start, cur, steps, nxt
+    integer :: nb, p, l, start, cur, steps, nxt, ist
     nb = mesh%nbedge
-    allocate (mesh%loop_bedge(nb), mesh%loop_start(nb + 1))
-    allocate (mesh%node_on_boundary(mesh%nnode), mesh%node_is_corner(mesh%nnode))
+    allocate (mesh%loop_bedge(nb), mesh%loop_start(nb + 1), mesh%node_on_boundary(mesh%nnode), &
+              mesh%node_is_corner(mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary loops of the mesh', 2 * nb + 2 * mesh%nnode + 1, BYTES_INT)) return
     mesh%node_on_boundary = mesh%node_bedge_out /= 0
     visited = 0            ! a flag per boundary edge
     p = 0

@@ -31,6 +31,7 @@ module dualsig_mesh_adapt
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH, DS_ERR_INPUT
   use dualsig_strings, only: itoa
   use dualsig_mesh, only: mesh_t, mesh_build_topology
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -73,7 +74,7 @@ contains
     integer, allocatable, intent(out) :: parents(:,:)
     type(status_t), intent(out) :: st
     integer, allocatable :: tri(:,:), tedge(:,:), gen(:), mid(:)
-    integer :: nn, nnew, e
+    integer :: nn, nnew, e, ist
     if (coarse%ntri < 1 .or. .not. (allocated(coarse%tri_edge) .and. allocated(coarse%edge_tri) &
         .and. allocated(coarse%bedge_edge))) then
       call set_error(st, DS_ERR_MESH, 'mesh_refine_marked: the mesh has no topology ' // &
@@ -85,22 +86,24 @@ contains
         itoa(coarse%ntri) // ' triangles')
       return
     end if
-    allocate (tri(3, coarse%ntri), tedge(3, coarse%ntri))
+    allocate (tri(3, coarse%ntri), tedge(3, coarse%ntri), gen(coarse%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the labelled triangles', 7 * coarse%ntri, BYTES_INT)) return
     if (allocated(coarse%tri_gen)) then
       tri = coarse%tri
       tedge = coarse%tri_edge
       gen = coarse%tri_gen
     else
       call mesh_label_longest_edge(coarse, tri, tedge)
-      allocate (gen(coarse%ntri), source=0)
+      gen = 0
     end if
-    call close_marks(coarse, marked, tedge, mid)
+    call close_marks(coarse, marked, tedge, mid, st)
+    if (st%code /= 0) return
     ! mid(e) > 0: edge e is split; number its midpoint
     nn = coarse%nnode
     nnew = count(mid > 0)
-    allocate (parents(2, nnew))
     fine%nnode = nn + nnew
-    allocate (fine%xy(2, fine%nnode))
+    allocate (parents(2, nnew), fine%xy(2, fine%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the nodes of the refined mesh', 2 * fine%nnode + 2 * nnew, BYTES_REAL)) return
     fine%xy(:, 1:nn) = coarse%xy
     nnew = 0
     do e = 1, coarse%nedge
@@ -110,23 +113,26 @@ contains
       parents(:, nnew) = coarse%edge_nodes(:, e)
       fine%xy(:, nn + nnew) = 0.5_dp * (coarse%xy(:, parents(1, nnew)) + coarse%xy(:, parents(2, nnew)))
     end do
-    call bisect_triangles(tri, tedge, gen, mid, fine)
-    call split_boundary(coarse, mid, fine)
+    call bisect_triangles(tri, tedge, gen, mid, fine, st)
+    if (st%code == 0) call split_boundary(coarse, mid, fine, st)
+    if (st%code /= 0) return
     call mesh_build_topology(fine, st)
     if (st%code /= 0) st%msg = 'mesh_refine_marked: ' // st%msg
   end subroutine mesh_refine_marked
 
   !> The conforming closure of the marks: mid(e) = 1 for every edge to split (the
   !> refinement edges of the marked triangles and of every triangle with a split edge).
-  subroutine close_marks(mesh, marked, tedge, mid)
+  subroutine close_marks(mesh, marked, tedge, mid, st)
     type(mesh_t), intent(in) :: mesh
     logical, intent(in) :: marked(:)
     integer, intent(in) :: tedge(:,:)
     integer, allocatable, intent(out) :: mid(:)
+    type(status_t), intent(inout) :: st
     integer, allocatable :: queue(:)
-    integer :: t, e, head, tail, s, r
-    allocate (mid(mesh%nedge), source=0)
-    allocate (queue(mesh%nedge))
+    integer :: t, e, head, tail, s, r, ist
+    allocate (mid(mesh%nedge), queue(mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the edges to bisect', 2 * mesh%nedge, BYTES_INT)) return
+    mid = 0
     tail = 0
     do t = 1, mesh%ntri
       if (.not. marked(t)) cycle
@@ -154,10 +160,11 @@ contains
 
   !> The triangles of the refined mesh: each coarse triangle copied (refinement edge not
   !> split) or bisected, its children bisected again when their refinement edges are split.
-  subroutine bisect_triangles(tri, tedge, gen, mid, fine)
+  subroutine bisect_triangles(tri, tedge, gen, mid, fine, st)
     integer, intent(in) :: tri(:,:), tedge(:,:), gen(:), mid(:)
     type(mesh_t), intent(inout) :: fine
-    integer :: t, nt, nfine, p, v(3)
+    type(status_t), intent(inout) :: st
+    integer :: t, nt, nfine, p, v(3), ist
     nt = size(tri, 2)
     nfine = 0
     do t = 1, nt
@@ -168,7 +175,8 @@ contains
       end if
     end do
     fine%ntri = nfine
-    allocate (fine%tri(3, nfine), fine%tri_gen(nfine))
+    allocate (fine%tri(3, nfine), fine%tri_gen(nfine), stat=ist)
+    if (alloc_failed(ist, st, 'the triangles of the refined mesh', 4 * nfine, BYTES_INT)) return
     nfine = 0
     do t = 1, nt
       v = tri(:, t)
@@ -203,13 +211,15 @@ contains
 
   !> The boundary edges of the refined mesh: a split edge becomes its two halves, each
   !> with the marker of the edge.
-  subroutine split_boundary(coarse, mid, fine)
+  subroutine split_boundary(coarse, mid, fine, st)
     type(mesh_t), intent(in) :: coarse
     integer, intent(in) :: mid(:)
     type(mesh_t), intent(inout) :: fine
-    integer :: j, nb, m
+    type(status_t), intent(inout) :: st
+    integer :: j, nb, m, ist
     fine%nbedge = coarse%nbedge + count(mid(coarse%bedge_edge) > 0)
-    allocate (fine%bedge_nodes(2, fine%nbedge), fine%bedge_marker(fine%nbedge))
+    allocate (fine%bedge_nodes(2, fine%nbedge), fine%bedge_marker(fine%nbedge), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary edges of the refined mesh', 3 * fine%nbedge, BYTES_INT)) return
     nb = 0
     do j = 1, coarse%nbedge
       m = mid(coarse%bedge_edge(j))
@@ -243,19 +253,23 @@ contains
   !> Doerfler marking: the smallest set M of triangles with sum_M eta2 >= theta sum eta2
   !> (eta2: the squared indicators, negative values counted as 0), the largest
   !> indicators first (a heap sort: n log n).  theta <= 0 marks nothing, theta >= 1 every
-  !> triangle with a positive indicator.
-  subroutine mesh_mark_doerfler(eta2, theta, marked, nmarked)
+  !> triangle with a positive indicator.  Out of memory: DS_ERR_MEMORY in st (without st
+  !> the program stops, see dualsig_alloc).
+  subroutine mesh_mark_doerfler(eta2, theta, marked, nmarked, st)
     real(dp), intent(in) :: eta2(:)
     real(dp), intent(in) :: theta
     logical, allocatable, intent(out) :: marked(:)
     integer, intent(out), optional :: nmarked
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: idx(:)
     real(dp), allocatable :: w(:)
     real(dp) :: total, target, acc
-    integer :: n, k
+    integer :: n, k, ist
     n = size(eta2)
-    allocate (marked(n), source=.false.)
     if (present(nmarked)) nmarked = 0
+    allocate (marked(n), w(n), idx(n), stat=ist)
+    if (alloc_failed(ist, st, 'the marks of the refinement', 3 * n, BYTES_REAL)) return
+    marked = .false.
     if (n == 0 .or. theta <= 0.0_dp) return
     w = max(eta2, 0.0_dp)
     total = sum(w)
@@ -275,10 +289,12 @@ contains
   !> idx: a permutation with w(idx(1)) >= w(idx(2)) >= ... (heap sort).
   subroutine sort_descending(w, idx)
     real(dp), intent(in) :: w(:)
-    integer, allocatable, intent(out) :: idx(:)
+    integer, intent(out) :: idx(:)           !! (size(w))
     integer :: n, i, tmp
     n = size(w)
-    idx = [(i, i=1, n)]
+    do i = 1, n
+      idx(i) = i
+    end do
     ! a min-heap on w: popping the smallest to the end leaves idx in descending order
     do i = n / 2, 1, -1
       call sift(i, n)

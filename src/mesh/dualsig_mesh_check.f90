@@ -26,9 +26,10 @@
 !> the mesh (0: none), so that a reader can name the line of the file.
 module dualsig_mesh_check
   use dualsig_kinds, only: dp, geom_rel_tol, area_sum_rel_tol
-  use dualsig_status, only: status_t, set_error, DS_ERR_MESH
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH
   use dualsig_strings, only: itoa
   use dualsig_mesh, only: mesh_t, mesh_triangle_area, mesh_diameter
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -58,7 +59,8 @@ contains
 
     nflipped = 0
     if (present(bad_tri)) bad_tri = 0
-    call signed_areas(mesh, area)
+    call signed_areas(mesh, area, st)
+    if (.not. is_ok(st)) return
     ncw = count(area < -zero_area(mesh))
     nccw = count(area > zero_area(mesh))
     if (ncw == 0) return
@@ -81,11 +83,12 @@ contains
     integer, intent(out), optional :: bad_tri
     integer, intent(in), optional :: tri_id(:), node_id(:)
     integer, allocatable :: head(:), slot(:), key(:,:)
-    integer :: t, s, p, q, lo
+    integer :: t, s, p, q, lo, ist
     type(naming_t) :: nm
 
     if (present(bad_tri)) bad_tri = 0
-    allocate (key(3, mesh%ntri), head(mesh%nnode + 1), slot(mesh%ntri))
+    allocate (key(3, mesh%ntri), head(mesh%nnode + 1), slot(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the duplicate-triangle check', 4 * mesh%ntri + mesh%nnode + 1, BYTES_INT)) return
     head = 0
     do t = 1, mesh%ntri
       key(:, t) = sorted3(mesh%tri(:, t))
@@ -139,8 +142,8 @@ contains
     else
       call mesh_check_duplicates(mesh, st, bad, tri_id, node_id)
     end if
+    if (st%code == 0) call signed_areas(mesh, area, st)
     if (st%code == 0) then
-      call signed_areas(mesh, area)
       ! (the topology admits only counter-clockwise triangles: the coordinates changed since?)
       if (any(.not. (area > zero_area(mesh)))) &
         call report_mixed(mesh, .not. (area > zero_area(mesh)), area > zero_area(mesh), nm, st, bad)
@@ -153,16 +156,21 @@ contains
 
   !> The signed area the boundary loops enclose: the shoelace formula over the boundary
   !> edges (domain on their left, so holes count negative), about the first node to limit
-  !> cancellation.  loop_area(l) (optional) returns it per loop.
-  function mesh_enclosed_area(mesh, loop_area) result(total)
+  !> cancellation.  loop_area(l) (optional) returns it per loop.  Out of memory: 0 and
+  !> DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  function mesh_enclosed_area(mesh, loop_area, st) result(total)
     type(mesh_t), intent(in) :: mesh
     real(dp), allocatable, intent(out), optional :: loop_area(:)
+    type(status_t), intent(inout), optional :: st
     real(dp) :: total
     real(dp) :: c(2), a(2), b(2), part
     real(dp), allocatable :: la(:)
-    integer :: l, p, j
+    integer :: l, p, j, ist
+    total = 0.0_dp
     c = mesh%xy(:, 1)
-    allocate (la(mesh%nloop), source=0.0_dp)
+    allocate (la(mesh%nloop), stat=ist)
+    if (alloc_failed(ist, st, 'the areas of the boundary loops', mesh%nloop, BYTES_REAL)) return
+    la = 0.0_dp
     do l = 1, mesh%nloop
       part = 0.0_dp
       do p = mesh%loop_start(l), mesh%loop_start(l + 1) - 1
@@ -179,16 +187,19 @@ contains
 
   !> Number of pieces of a mesh with topology: the classes of triangles connected through
   !> shared sides (sharing a vertex only does not connect).  piece(t) (optional) returns
-  !> the piece of each triangle, numbered by their smallest triangle.
-  function mesh_count_pieces(mesh, piece) result(npiece)
+  !> the piece of each triangle, numbered by their smallest triangle.  Out of memory: 0
+  !> and DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  function mesh_count_pieces(mesh, piece, st) result(npiece)
     type(mesh_t), intent(in) :: mesh
     integer, allocatable, intent(out), optional :: piece(:)
+    type(status_t), intent(inout), optional :: st
     integer :: npiece
     integer, allocatable :: pc(:), stack(:)
-    integer :: t0, t, k, e, nb, top
-    allocate (pc(mesh%ntri), source=0)
-    allocate (stack(mesh%ntri))
+    integer :: t0, t, k, e, nb, top, ist
     npiece = 0
+    allocate (pc(mesh%ntri), stack(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the connected pieces of the mesh', 2 * mesh%ntri, BYTES_INT)) return
+    pc = 0
     do t0 = 1, mesh%ntri
       if (pc(t0) /= 0) cycle
       npiece = npiece + 1
@@ -223,7 +234,7 @@ contains
     integer, intent(inout) :: bad
     integer, allocatable :: piece(:)
     integer :: npiece, t2
-    npiece = mesh_count_pieces(mesh, piece)
+    npiece = mesh_count_pieces(mesh, piece, st)
     if (npiece <= 1) return
     t2 = findloc(piece, 2, dim=1)
     call set_error(st, DS_ERR_MESH, 'mesh: the triangles form ' // itoa(npiece) // ' separate pieces ' // &
@@ -241,7 +252,8 @@ contains
     real(dp), allocatable :: la(:)
     real(dp) :: total
     integer :: nouter, l
-    total = mesh_enclosed_area(mesh, la)
+    total = mesh_enclosed_area(mesh, la, st)
+    if (.not. is_ok(st)) return
     nouter = count(la > 0.0_dp)
     if (nouter == 1) return
     if (mesh%nloop == 0) then
@@ -273,7 +285,8 @@ contains
     integer :: e
     character(len=:), allocatable :: where
     sum_tri = sum(area)
-    enclosed = mesh_enclosed_area(mesh)
+    enclosed = mesh_enclosed_area(mesh, st=st)
+    if (.not. is_ok(st)) return
     rel = abs(sum_tri - enclosed) / sum_tri
     if (rel <= area_sum_rel_tol) return
     where = ''
@@ -341,11 +354,13 @@ contains
   ! ------------------------------------------------------------------ helpers
 
   !> Signed area of every triangle.
-  subroutine signed_areas(mesh, area)
+  subroutine signed_areas(mesh, area, st)
     type(mesh_t), intent(in) :: mesh
     real(dp), allocatable, intent(out) :: area(:)
-    integer :: t
-    allocate (area(mesh%ntri))
+    type(status_t), intent(inout) :: st
+    integer :: t, ist
+    allocate (area(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the triangle areas', mesh%ntri, BYTES_REAL)) return
     do t = 1, mesh%ntri
       area(t) = mesh_triangle_area(mesh, t)
     end do

@@ -20,9 +20,10 @@
 !>     hole sides  5 bottom (y = 1/4), 6 right (x = 3/4), 7 top (y = 3/4), 8 left (x = 1/4).
 module dualsig_mesh_generate
   use dualsig_kinds, only: dp, i8
-  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t, mesh_build_topology
   use dualsig_strings, only: lower
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL, BYTES_LOGICAL
   implicit none
   private
 
@@ -51,7 +52,7 @@ contains
     integer, allocatable :: bside(:), bcell(:,:), marker(:)
     character(len=:), allocatable :: pat
     character(len=200) :: buf
-    integer :: i, j, b
+    integer :: i, j, b, ist
 
     if (nx < 1 .or. ny < 1) then
       write (buf, '(a,i0,a,i0,a)') who // ': nx = ', nx, ', ny = ', ny, &
@@ -72,8 +73,9 @@ contains
       return
     end if
     pat = lower(trim(adjustl(pattern)))
-    allocate (active(0:nx - 1, 0:ny - 1), source=.true.)
-    allocate (diag_right(0:nx - 1, 0:ny - 1))
+    allocate (active(0:nx - 1, 0:ny - 1), diag_right(0:nx - 1, 0:ny - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the cells of the grid', 2 * nx * ny, BYTES_LOGICAL)) return
+    active = .true.
     select case (pat)
     case ('right')
       diag_right = .true.
@@ -92,8 +94,10 @@ contains
     end select
 
     call masked_grid(mesh, grid_coords(x0, x1, nx), grid_coords(y0, y1, ny), active, &
-                     diag_right, bside, bcell)
-    allocate (marker(size(bside)))
+                     diag_right, bside, bcell, st)
+    if (.not. is_ok(st)) return
+    allocate (marker(size(bside)), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary markers', size(bside), BYTES_INT)) return
     do b = 1, size(bside)
       marker(b) = bside(b)     ! every cell side on the boundary is a side of the rectangle
     end do
@@ -111,7 +115,7 @@ contains
     logical, allocatable :: active(:,:), diag_right(:,:)
     integer, allocatable :: bside(:), bcell(:,:), marker(:)
     character(len=200) :: buf
-    integer :: b, i, j
+    integer :: b, i, j, ist
 
     if (n < 1 .or. .not. grid_size_ok(2_i8 * n, 2_i8 * n)) then
       write (buf, '(a,i0,a)') who // ': n = ', n, &
@@ -119,12 +123,16 @@ contains
       call set_error(st, DS_ERR_INPUT, trim(buf))
       return
     end if
-    allocate (active(0:2 * n - 1, 0:2 * n - 1), source=.true.)
+    allocate (active(0:2 * n - 1, 0:2 * n - 1), diag_right(0:2 * n - 1, 0:2 * n - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the cells of the grid', 8 * n * n, BYTES_LOGICAL)) return
+    active = .true.
     active(n:2 * n - 1, 0:n - 1) = .false.          ! the lower-right quadrant
-    allocate (diag_right(0:2 * n - 1, 0:2 * n - 1), source=.true.)
+    diag_right = .true.
     call masked_grid(mesh, grid_coords(-1.0_dp, 1.0_dp, 2 * n), grid_coords(-1.0_dp, 1.0_dp, 2 * n), &
-                     active, diag_right, bside, bcell)
-    allocate (marker(size(bside)))
+                     active, diag_right, bside, bcell, st)
+    if (.not. is_ok(st)) return
+    allocate (marker(size(bside)), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary markers', size(bside), BYTES_INT)) return
     do b = 1, size(bside)
       i = bcell(1, b)
       j = bcell(2, b)
@@ -154,7 +162,7 @@ contains
     logical, allocatable :: active(:,:), diag_right(:,:)
     integer, allocatable :: bside(:), bcell(:,:), marker(:)
     character(len=200) :: buf
-    integer :: b, i, j, m
+    integer :: b, i, j, m, ist
 
     if (n < 1 .or. .not. grid_size_ok(4_i8 * n, 4_i8 * n)) then
       write (buf, '(a,i0,a)') who // ': n = ', n, &
@@ -163,12 +171,16 @@ contains
       return
     end if
     m = 4 * n
-    allocate (active(0:m - 1, 0:m - 1), source=.true.)
+    allocate (active(0:m - 1, 0:m - 1), diag_right(0:m - 1, 0:m - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the cells of the grid', 2 * m * m, BYTES_LOGICAL)) return
+    active = .true.
     active(n:3 * n - 1, n:3 * n - 1) = .false.        ! the hole
-    allocate (diag_right(0:m - 1, 0:m - 1), source=.true.)
+    diag_right = .true.
     call masked_grid(mesh, grid_coords(0.0_dp, 1.0_dp, m), grid_coords(0.0_dp, 1.0_dp, m), &
-                     active, diag_right, bside, bcell)
-    allocate (marker(size(bside)))
+                     active, diag_right, bside, bcell, st)
+    if (.not. is_ok(st)) return
+    allocate (marker(size(bside)), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary markers', size(bside), BYTES_INT)) return
     do b = 1, size(bside)
       i = bcell(1, b)
       j = bcell(2, b)
@@ -227,22 +239,25 @@ contains
   !> kept when active(i,j); diag_right(i,j) selects the diagonal (i,j)-(i+1,j+1), otherwise
   !> (i+1,j)-(i,j+1).  On return bside(b) (SIDE_BOTTOM..SIDE_LEFT) and bcell(:,b) = [i,j]
   !> tell which cell side boundary edge b is; bedge_marker is left for the caller.
-  subroutine masked_grid(mesh, xs, ys, active, diag_right, bside, bcell)
+  subroutine masked_grid(mesh, xs, ys, active, diag_right, bside, bcell, st)
     type(mesh_t), intent(inout) :: mesh
     real(dp), intent(in) :: xs(0:), ys(0:)
     logical, intent(in) :: active(0:, 0:), diag_right(0:, 0:)
     integer, allocatable, intent(out) :: bside(:), bcell(:,:)
+    type(status_t), intent(inout) :: st
     integer, allocatable :: id(:,:)
     logical, allocatable :: pad(:,:)
-    integer :: nx, ny, i, j, k, t, nb, nn, p00, p10, p11, p01
+    integer :: nx, ny, i, j, k, t, nb, nn, p00, p10, p11, p01, ist
 
     nx = size(xs) - 1
     ny = size(ys) - 1
     ! the kept-cell mask with a frame of removed cells around it
-    allocate (pad(-1:nx, -1:ny), source=.false.)
+    allocate (pad(-1:nx, -1:ny), id(0:nx, 0:ny), stat=ist)
+    if (alloc_failed(ist, st, 'the nodes of the grid', 2 * (nx + 2) * (ny + 2), BYTES_INT)) return
+    pad = .false.
     pad(0:nx - 1, 0:ny - 1) = active
     ! --- nodes: grid points touched by a kept cell ---
-    allocate (id(0:nx, 0:ny), source=0)
+    id = 0
     nn = 0
     do j = 0, ny
       do i = 0, nx
@@ -253,7 +268,8 @@ contains
       end do
     end do
     mesh%nnode = nn
-    allocate (mesh%xy(2, nn))
+    allocate (mesh%xy(2, nn), stat=ist)
+    if (alloc_failed(ist, st, 'the nodes of the mesh', 2 * nn, BYTES_REAL)) return
     do j = 0, ny
       do i = 0, nx
         if (id(i, j) > 0) mesh%xy(:, id(i, j)) = [xs(i), ys(j)]
@@ -262,7 +278,8 @@ contains
 
     ! --- triangles and boundary edges ---
     mesh%ntri = 2 * count(active)
-    allocate (mesh%tri(3, mesh%ntri))
+    allocate (mesh%tri(3, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the triangles of the mesh', 3 * mesh%ntri, BYTES_INT)) return
     nb = 0
     do j = 0, ny - 1
       do i = 0, nx - 1
@@ -273,7 +290,8 @@ contains
       end do
     end do
     mesh%nbedge = nb
-    allocate (mesh%bedge_nodes(2, nb), bside(nb), bcell(2, nb))
+    allocate (mesh%bedge_nodes(2, nb), bside(nb), bcell(2, nb), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary edges of the mesh', 5 * nb, BYTES_INT)) return
     t = 0
     nb = 0
     do j = 0, ny - 1

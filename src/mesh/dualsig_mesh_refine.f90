@@ -14,9 +14,10 @@
 !> Every child is similar to its parent, so angles (and the alpha-beta regularity of the
 !> family) are preserved and h halves.
 module dualsig_mesh_refine
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH
   use dualsig_mesh, only: mesh_t, mesh_build_topology
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -31,7 +32,7 @@ contains
     type(mesh_t), intent(in) :: coarse
     type(mesh_t), intent(out) :: fine
     type(status_t), intent(out) :: st
-    integer :: nn, t, e, j, v(3), m(3)
+    integer :: nn, t, e, j, v(3), m(3), ist
 
     if (coarse%ntri < 1 .or. .not. (allocated(coarse%tri_edge) .and. allocated(coarse%edge_nodes) &
         .and. allocated(coarse%bedge_edge))) then
@@ -43,8 +44,9 @@ contains
     fine%nnode = nn + coarse%nedge
     fine%ntri = 4 * coarse%ntri
     fine%nbedge = 2 * coarse%nbedge
-    allocate (fine%xy(2, fine%nnode), fine%tri(3, fine%ntri))
-    allocate (fine%bedge_nodes(2, fine%nbedge), fine%bedge_marker(fine%nbedge))
+    allocate (fine%xy(2, fine%nnode), fine%tri(3, fine%ntri), fine%bedge_nodes(2, fine%nbedge), &
+              fine%bedge_marker(fine%nbedge), stat=ist)
+    if (alloc_failed(ist, st, 'the refined mesh', 2_i8 * fine%nnode + fine%ntri + fine%nbedge, BYTES_REAL)) return
 
     fine%xy(:, 1:nn) = coarse%xy(:, 1:nn)
     do e = 1, coarse%nedge
@@ -62,7 +64,8 @@ contains
     end do
 
     if (allocated(coarse%tri_region)) then
-      allocate (fine%tri_region(fine%ntri))
+      allocate (fine%tri_region(fine%ntri), stat=ist)
+      if (alloc_failed(ist, st, 'the regions of the refined mesh', fine%ntri, BYTES_INT)) return
       do t = 1, coarse%ntri
         fine%tri_region(4 * t - 3:4 * t) = coarse%tri_region(t)
       end do

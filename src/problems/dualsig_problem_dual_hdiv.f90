@@ -48,8 +48,8 @@ module dualsig_problem_dual_hdiv
                                         hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t
-  use dualsig_sparse, only: csr_matvec
   implicit none
   private
 
@@ -96,20 +96,23 @@ contains
     real(dp), allocatable :: xs(:), zero(:), pts(:,:)
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
-    integer :: n
+    integer :: n, ist
 
     if (all(trim(settings%method) /= [character(len=10) :: 'active_set', 'uzawa', 'nested'])) then
       call set_error(st, DS_ERR_INPUT, 'dual P1 (hdiv): unknown method "' // trim(settings%method) // &
         '"; expected active_set, uzawa or nested')
       return
     end if
-    call assemble_dual_hdiv(mesh, f, rule, sys)
+    call assemble_dual_hdiv(mesh, f, rule, sys, st)
+    if (.not. is_ok(st)) return
     n = sys%a%n
-    call dual_hdiv_bound_kinds(mesh, kind)
+    call dual_hdiv_bound_kinds(mesh, kind, st)
+    if (.not. is_ok(st)) return
     res%nconstraints = count(kind == BOUND_LOWER)
-    allocate (xs(n), source=0.0_dp)
-    allocate (zero(n), source=0.0_dp)
-    allocate (pts(2, n))
+    allocate (xs(n), zero(n), pts(2, n), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 dual vectors', 4 * n, BYTES_REAL)) return
+    xs = 0.0_dp
+    zero = 0.0_dp
     call hdiv_dof_points(mesh, pts)
     if (trim(settings%method) == 'uzawa') then
       call solve_uzawa(sys, kind, pts, settings, xs, res, st)
@@ -146,7 +149,8 @@ contains
     ! feasible by construction (active set) or by projection (Uzawa)
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
     res%nactive = count(kind == BOUND_LOWER .and. xs <= 0.0_dp)
-    allocate (x(hdiv_nfield(mesh)))
+    allocate (x(hdiv_nfield(mesh)), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 dual field', hdiv_nfield(mesh), BYTES_REAL)) return
     call hdiv_recover(mesh, sys, xs, x)
     if (present(nest)) then
       if (trim(settings%method) == 'nested') nest%q = x
@@ -155,11 +159,15 @@ contains
   end subroutine dual_hdiv_solve
 
   !> Bound kinds of the side unknowns: BOUND_LOWER (>= 0) on boundary edges, free otherwise.
-  subroutine dual_hdiv_bound_kinds(mesh, kind)
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_hdiv_bound_kinds(mesh, kind, st)
     type(mesh_t), intent(in) :: mesh
     integer, allocatable, intent(out) :: kind(:)
-    integer :: j, dofs(2)
-    allocate (kind(2 * mesh%nedge), source=BOUND_FREE)
+    type(status_t), intent(inout), optional :: st
+    integer :: j, dofs(2), ist
+    allocate (kind(2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the bound kinds of the RT1 unknowns', 2 * mesh%nedge, BYTES_INT)) return
+    kind = BOUND_FREE
     do j = 1, mesh%nbedge
       call hdiv_bedge_dofs(mesh, j, dofs)
       kind(dofs) = BOUND_LOWER
@@ -200,14 +208,19 @@ contains
 
   !> The state of 'nested' after the uniform refinement of coarse into fine: the last
   !> field prolongated (the start) and the prolongation of side unknowns (the V-cycle's).
-  subroutine dual_hdiv_nested_refine(nest, coarse, fine)
+  !> Out of memory: DS_ERR_MEMORY in st.
+  subroutine dual_hdiv_nested_refine(nest, coarse, fine, st)
     type(hdiv_nested_t), intent(inout) :: nest
     type(mesh_t), intent(in) :: coarse, fine
+    type(status_t), intent(inout) :: st
     real(dp), allocatable :: q_next(:)
-    allocate (q_next(hdiv_nfield(fine)))
+    integer :: ist
+    allocate (q_next(hdiv_nfield(fine)), stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated RT1 field', hdiv_nfield(fine), BYTES_REAL)) return
     call hdiv_prolongate(coarse, fine, nest%q, q_next)
     call move_alloc(q_next, nest%q)
-    call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next)
+    call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st)
+    if (.not. is_ok(st)) return
     nest%ready = .true.
   end subroutine dual_hdiv_nested_refine
 
@@ -238,13 +251,18 @@ contains
     real(dp), allocatable :: xs0(:)
     real(dp) :: j_floor
     integer :: round, nheld
+    type(status_t) :: st_alloc
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
     free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
     if (present(u_primal)) call complementarity_prediction(mesh, u_primal, xs, free)
     xs0 = xs
     j_floor = nested_floor(mesh, f, rule, sys, u_primal)
     ! vertex patches of the unbounded unknowns; the free bounded ones by point blocks
-    call vertex_patches(mesh, kind /= BOUND_LOWER, ptr, idx)
+    call vertex_patches(mesh, kind /= BOUND_LOWER, ptr, idx, st_alloc)
+    if (.not. is_ok(st_alloc)) then
+      st = st_alloc
+      return
+    end if
     nest%rec_k = sys%rec_k
     call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, kind == BOUND_LOWER, st)
     if (.not. is_ok(st)) return
@@ -253,7 +271,8 @@ contains
       call mg_hold(nest%mg, free, st)
       if (.not. is_ok(st)) return
       call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
-                         min(settings%max_iter, nested_max_iter), xs, pres)
+                         min(settings%max_iter, nested_max_iter), xs, pres, st)
+      if (.not. is_ok(st)) return
       res%iterations = res%iterations + pres%iterations
       res%converged = pres%converged
       res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
@@ -275,10 +294,16 @@ contains
   real(dp) function quadratic(a, b, x) result(jx)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: b(:), x(:)
-    real(dp), allocatable :: ax(:)
-    allocate (ax(a%n))
-    call csr_matvec(a, x, ax)
-    jx = 0.5_dp * dot_product(x, ax) - dot_product(b, x)
+    integer :: i, p
+    real(dp) :: axi
+    jx = 0.0_dp                              ! row by row: no work vector
+    do i = 1, a%n
+      axi = 0.0_dp
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        axi = axi + a%val(p) * x(a%col(p))
+      end do
+      jx = jx + x(i) * (0.5_dp * axi - b(i))
+    end do
   end function quadratic
 
   !> The active set predicted by complementarity with the primal solution u (nnode), as
@@ -301,13 +326,16 @@ contains
 
   !> The vertex patches of the free side unknowns: for every node, the free unknowns of
   !> the edges at it (both ends of each edge).
-  subroutine vertex_patches(mesh, free, ptr, idx)
+  subroutine vertex_patches(mesh, free, ptr, idx, st)
     type(mesh_t), intent(in) :: mesh
     logical, intent(in) :: free(:)
     integer, allocatable, intent(out) :: ptr(:), idx(:)
+    type(status_t), intent(inout) :: st
     integer, allocatable :: fill(:)
-    integer :: e, j, v, i
-    allocate (ptr(mesh%nnode + 1), source=0)
+    integer :: e, j, v, i, ist
+    allocate (ptr(mesh%nnode + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the vertex patches', mesh%nnode + 1, BYTES_INT)) return
+    ptr = 0
     do e = 1, mesh%nedge
       do j = 1, 2
         v = mesh%edge_nodes(j, e)
@@ -318,7 +346,8 @@ contains
     do v = 1, mesh%nnode
       ptr(v + 1) = ptr(v + 1) + ptr(v)
     end do
-    allocate (idx(ptr(mesh%nnode + 1) - 1))
+    allocate (idx(ptr(mesh%nnode + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the vertex patches', ptr(mesh%nnode + 1) - 1, BYTES_INT)) return
     fill = ptr(1:mesh%nnode)
     do e = 1, mesh%nedge
       do j = 1, 2
@@ -374,12 +403,14 @@ contains
     type(uzawa_result_t) :: ures
     integer, allocatable :: rows(:), cols(:), perm(:), row_kind(:)
     real(dp), allocatable :: vals(:), z(:), zero(:)
-    integer :: m, i, ord
+    integer :: m, i, ord, ist
     m = count(kind == BOUND_LOWER)
-    allocate (rows(m), cols(m))
-    allocate (vals(m), source=1.0_dp)
-    allocate (z(m), zero(m), source=0.0_dp)
-    allocate (row_kind(m), source=ROW_INEQUALITY)
+    allocate (rows(m), cols(m), vals(m), z(m), zero(m), row_kind(m), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 constraint rows', 6 * m, BYTES_REAL)) return
+    vals = 1.0_dp
+    z = 0.0_dp
+    zero = 0.0_dp
+    row_kind = ROW_INEQUALITY
     m = 0
     do i = 1, size(kind)
       if (kind(i) /= BOUND_LOWER) cycle
@@ -387,7 +418,8 @@ contains
       rows(m) = m
       cols(m) = i
     end do
-    call rect_from_triplets(m, sys%a%n, rows, cols, vals, bmat)
+    call rect_from_triplets(m, sys%a%n, rows, cols, vals, bmat, st)
+    if (.not. is_ok(st)) return
     call select_ordering(settings%ordering, pts, sys%a, ord, perm, st)
     if (.not. is_ok(st)) return
     call chol%factor(sys%a, st, ord, perm)

@@ -38,6 +38,7 @@ module dualsig_problem_dual_p1
   use dualsig_assembly_dual_p1, only: dual_p1_dof, assemble_dual_p1
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH, DS_ERR_INPUT
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -100,16 +101,18 @@ contains
     type(uzawa_result_t) :: ures
     type(active_set_settings_t) :: aset
     type(active_set_result_t) :: ares
-    integer :: i, ord
+    integer :: i, ord, ist
     integer, allocatable :: perm(:)
 
     call dual_p1_transforms(mesh, t, tinv, kind, st)
     if (st%code /= 0) return
-    allocate (b(2 * mesh%nnode), q(2 * mesh%nnode), y(2 * mesh%nnode))
+    allocate (b(2 * mesh%nnode), q(2 * mesh%nnode), y(2 * mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the dual P1 vectors', 6 * mesh%nnode, BYTES_REAL)) return
     res%nconstraints = count(mesh%node_on_boundary) + count(mesh%node_is_corner)
     select case (trim(settings%method))
     case ('uzawa')
-      call assemble_dual_p1(mesh, f, rule, a, b)
+      call assemble_dual_p1(mesh, f, rule, a, b, st=st)
+      if (.not. is_ok(st)) return
       call dual_p1_ordering(mesh, a, settings%ordering, ord, perm, st)
       if (st%code /= 0) return
       call chol%factor(a, st, ord, perm)
@@ -117,10 +120,13 @@ contains
       res%factorisations = 1
       res%nnz_factor = chol%chol%nnz_factor
       res%ordering = chol%chol%ordering
-      call dual_p1_constraint_rows(mesh, bmat, row_node)
-      allocate (z(bmat%m), source=0.0_dp)
-      allocate (row_kind(bmat%m), source=ROW_INEQUALITY)
-      allocate (zero(bmat%m), source=0.0_dp)
+      call dual_p1_constraint_rows(mesh, bmat, row_node, st)
+      if (.not. is_ok(st)) return
+      allocate (z(bmat%m), row_kind(bmat%m), zero(bmat%m), stat=ist)
+      if (alloc_failed(ist, st, 'the dual P1 constraints', 3 * bmat%m, BYTES_REAL)) return
+      z = 0.0_dp
+      row_kind = ROW_INEQUALITY
+      zero = 0.0_dp
       uset%rho = settings%rho
       uset%tol = settings%tol
       uset%max_iter = settings%max_iter
@@ -136,9 +142,12 @@ contains
       res%nactive = count(z > 0.0_dp)
       call dual_p1_feasible_q(t, tinv, kind, y, q)
     case ('active_set')
-      call assemble_dual_p1(mesh, f, rule, a, b, t)
-      allocate (s(2 * mesh%nnode), source=0.0_dp)
-      allocate (zero(2 * mesh%nnode), source=0.0_dp)
+      call assemble_dual_p1(mesh, f, rule, a, b, t, st)
+      if (.not. is_ok(st)) return
+      allocate (s(2 * mesh%nnode), zero(2 * mesh%nnode), stat=ist)
+      if (alloc_failed(ist, st, 'the dual P1 vectors', 4 * mesh%nnode, BYTES_REAL)) return
+      s = 0.0_dp
+      zero = 0.0_dp
       if (present(u_primal)) then
         ! held (q.nu = 0) where the primal solution separates, free where it is in contact
         do i = 1, mesh%nnode
@@ -178,9 +187,10 @@ contains
     integer, allocatable, intent(out) :: kind(:)
     type(status_t), intent(out) :: st
     real(dp) :: nu_in(2), nu_out(2), det, nmat(2, 2)
-    integer :: i
-    allocate (t(2, 2, mesh%nnode), tinv(2, 2, mesh%nnode))
-    allocate (kind(2 * mesh%nnode), source=BOUND_FREE)
+    integer :: i, ist
+    allocate (t(2, 2, mesh%nnode), tinv(2, 2, mesh%nnode), kind(2 * mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the dual P1 node transforms', 9 * mesh%nnode, BYTES_REAL)) return
+    kind = BOUND_FREE
     do i = 1, mesh%nnode
       t(:, :, i) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [2, 2])
       tinv(:, :, i) = t(:, :, i)
@@ -210,17 +220,20 @@ contains
   end subroutine dual_p1_transforms
 
   !> The constraint matrix B of (3.4) in the original variables y (see the module header
-  !> for the row convention) and, for each row, its boundary node.
-  subroutine dual_p1_constraint_rows(mesh, b, row_node)
+  !> for the row convention) and, for each row, its boundary node.  Out of memory:
+  !> DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine dual_p1_constraint_rows(mesh, b, row_node, st)
     type(mesh_t), intent(in) :: mesh
     type(rect_t), intent(out) :: b
     integer, allocatable, intent(out) :: row_node(:)
+    type(status_t), intent(out), optional :: st
     integer, allocatable :: r(:), c(:)
     real(dp), allocatable :: v(:)
     real(dp) :: nu(2)
-    integer :: i, m, k, pass
+    integer :: i, m, k, pass, ist
     m = count(mesh%node_on_boundary) + count(mesh%node_is_corner)
-    allocate (r(2 * m), c(2 * m), v(2 * m), row_node(m))
+    allocate (r(2 * m), c(2 * m), v(2 * m), row_node(m), stat=ist)
+    if (alloc_failed(ist, st, 'the dual P1 constraint rows', 8 * m, BYTES_REAL)) return
     m = 0
     k = 0
     do i = 1, mesh%nnode
@@ -239,7 +252,7 @@ contains
         k = k + 2
       end do
     end do
-    call rect_from_triplets(m, 2 * mesh%nnode, r, c, v, b)
+    call rect_from_triplets(m, 2 * mesh%nnode, r, c, v, b, st)
   end subroutine dual_p1_constraint_rows
 
   !> w(node i) = blocks(:,:,i) v(node i) for node-interleaved vectors: y = T s with the
@@ -278,8 +291,9 @@ contains
     integer, allocatable, intent(out) :: perm(:)
     type(status_t), intent(out) :: st
     real(dp), allocatable :: xy(:,:)
-    integer :: i
-    allocate (xy(2, 2 * mesh%nnode))
+    integer :: i, ist
+    allocate (xy(2, 2 * mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the points of the dual P1 unknowns', 4 * mesh%nnode, BYTES_REAL)) return
     do i = 1, mesh%nnode
       xy(:, 2 * i - 1) = mesh%xy(:, i)
       xy(:, 2 * i) = mesh%xy(:, i)

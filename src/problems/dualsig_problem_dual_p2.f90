@@ -45,6 +45,7 @@ module dualsig_problem_dual_p2
   use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_coefficients, bubble_value
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -147,26 +148,31 @@ contains
     type(uzawa_result_t) :: ures
     type(status_t) :: st_eq
     real(dp) :: t0
+    integer :: ist
 
     call dual_p2_check_assumptions(mesh, is_gamma_a, st)
     if (st%code /= 0) return
     t0 = wall_seconds()
     call equilibrium_elements(mesh, field%c, ae, d, st)
     if (st%code /= 0) return
-    call equilibrium_map(mesh, map)
+    call equilibrium_map(mesh, map, st)
+    if (.not. is_ok(st)) return
     res%seconds_elements = lap(t0)
     select case (trim(settings%particular))
     case ('polynomial')
       call particular_polynomial(mesh, f, map, ae, d, is_gamma_a, field, be, st, breaks, load)
       if (.not. is_ok(st)) return
       res%seconds_particular = lap(t0)
-      allocate (gh(2, mesh%nbedge), source=0.0_dp)       ! lambda^f . nu = 0 on Gamma_a
+      allocate (gh(2, mesh%nbedge), stat=ist)
+      if (alloc_failed(ist, st, 'the flux bounds on Gamma_a', 2 * mesh%nbedge, BYTES_REAL)) return
+      gh = 0.0_dp                                        ! lambda^f . nu = 0 on Gamma_a
     case ('stream')
       call particular_field_build(mesh, f, x_start, is_gamma_a, field%pf, st, breaks)
       if (.not. is_ok(st)) return
       res%particular_converged = field%pf%converged
       res%seconds_particular = lap(t0)
-      call stream_loads(mesh, f, field, be)
+      call stream_loads(mesh, f, field, be, st)
+      if (.not. is_ok(st)) return
       gh = field%pf%gh
     case default
       call set_error(st, DS_ERR_INPUT, "dual P2: unknown particular field '" // trim(settings%particular) // &
@@ -174,17 +180,22 @@ contains
       return
     end select
     res%seconds_loads = lap(t0)
-    call equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd)
-    allocate (field%beta(6, mesh%ntri), x(2 * mesh%nedge))
+    call equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd, st)
+    if (.not. is_ok(st)) return
+    allocate (field%beta(6, mesh%ntri), x(2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium fluxes', 6 * mesh%ntri + 2 * mesh%nedge, BYTES_REAL)) return
     res%nconstraints = mesh%ntri + count(on_gamma_a)
 
     select case (trim(settings%method))
     case ('augmented')
-      call assemble_equilibrium_global(map, ae, a)
-      allocate (bx(2 * mesh%nedge))
+      call assemble_equilibrium_global(map, ae, a, st)
+      if (.not. is_ok(st)) return
+      allocate (bx(2 * mesh%nedge), kind(2 * mesh%nedge), stat=ist)
+      if (alloc_failed(ist, st, 'the equilibrium load', 4 * mesh%nedge, BYTES_REAL)) return
       call equilibrium_to_global(map, be, bx)
-      call equilibrium_div_rows_global(map, d, dmat)
-      allocate (kind(2 * mesh%nedge), source=BOUND_FREE)
+      call equilibrium_div_rows_global(map, d, dmat, st)
+      if (.not. is_ok(st)) return
+      kind = BOUND_FREE
       where (on_gamma_a) kind = BOUND_LOWER
       x = 0.0_dp
       if (present(u_primal)) call start_from_primal(mesh, u_primal, is_gamma_a, bnd, x)
@@ -211,8 +222,12 @@ contains
     case ('uzawa')
       call blocks%factor(ae, st)
       if (st%code /= 0) return
-      call equilibrium_rows_local(mesh, map, d, on_gamma_a, bnd, bmat, row_kind, e)
-      allocate (y(6 * mesh%ntri), z(bmat%m), source=0.0_dp)
+      call equilibrium_rows_local(mesh, map, d, on_gamma_a, bnd, bmat, row_kind, e, st)
+      if (.not. is_ok(st)) return
+      allocate (y(6 * mesh%ntri), z(bmat%m), stat=ist)
+      if (alloc_failed(ist, st, 'the Uzawa unknowns', 6 * mesh%ntri + bmat%m, BYTES_REAL)) return
+      y = 0.0_dp
+      z = 0.0_dp
       uset%rho = settings%rho
       uset%tol = settings%tol
       uset%max_iter = settings%max_iter
@@ -226,7 +241,8 @@ contains
       res%nconstraints = bmat%m
       res%nactive = count(z(mesh%ntri + 1:) > 0.0_dp .and. row_kind(mesh%ntri + 1:) == 1)
       ! continuous fluxes: average the two parameters of each global unknown; Gamma_a bounds
-      call average_to_global(map, reshape(y, [6, mesh%ntri]), x)
+      call average_to_global(map, reshape(y, [6, mesh%ntri]), x, st)
+      if (.not. is_ok(st)) return
       where (on_gamma_a) x = max(x, bnd)
     case default
       call set_error(st, DS_ERR_INPUT, 'dual P2: unknown method "' // trim(settings%method) // &
@@ -271,7 +287,7 @@ contains
     real(dp) :: xy(2, 3)
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp
-    integer :: t, k
+    integer :: t, k, ist
     if (present(load)) then
       target = -load%mean * triangle_areas(mesh)
       slope = load%slope
@@ -281,11 +297,14 @@ contains
       target = -own%mean * triangle_areas(mesh)
       slope = own%slope
     end if
-    allocate (xf(2 * mesh%nedge), source=0.0_dp)
+    allocate (xf(2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the particular fluxes', 2 * mesh%nedge, BYTES_REAL)) return
+    xf = 0.0_dp
     call equilibrate_divergence(mesh, map, d, is_gamma_a, xf, st, target)
     if (.not. is_ok(st)) return
     field%polynomial = .true.
-    allocate (field%beta_f(6, mesh%ntri), field%bubble(3, mesh%ntri), be(6, mesh%ntri))
+    allocate (field%beta_f(6, mesh%ntri), field%bubble(3, mesh%ntri), be(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the particular field', 15 * mesh%ntri, BYTES_REAL)) return
     call equilibrium_to_local(map, xf, field%beta_f)
     rule = tri_rule(bubble_load_degree)
     do t = 1, mesh%ntri
@@ -293,7 +312,7 @@ contains
       field%bubble(:, t) = bubble_coefficients(xy, slope(:, t))
       tp = tri_points(xy, rule, [real(dp) ::])
       if (allocated(lam)) deallocate (lam)
-      allocate (lam(2, tp%n))
+      allocate (lam(2, tp%n))                      ! small: the points of one triangle
       do k = 1, tp%n
         lam(:, k) = bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
       end do
@@ -316,21 +335,23 @@ contains
 
   !> The element loads b_e = -C_e^T int lambda^f . Phi (4.7) of the paper's particular field
   !> (lambda^f at the points of a degree-load_degree rule, split at its breaks).
-  subroutine stream_loads(mesh, f, field, be)
+  subroutine stream_loads(mesh, f, field, be, st)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(dual_p2_field_t), intent(in) :: field
     real(dp), allocatable, intent(out) :: be(:,:)
+    type(status_t), intent(inout) :: st
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp
     real(dp), allocatable :: lam(:,:)
-    integer :: t, k
+    integer :: t, k, ist
     rule = tri_rule(load_degree)
-    allocate (be(6, mesh%ntri))
+    allocate (be(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the element loads', 6 * mesh%ntri, BYTES_REAL)) return
     do t = 1, mesh%ntri
       tp = tri_points(mesh%xy(:, mesh%tri(:, t)), rule, field%pf%breaks(1:field%pf%nbreaks))
       if (allocated(lam)) deallocate (lam)
-      allocate (lam(2, tp%n))
+      allocate (lam(2, tp%n))                      ! small: the points of one triangle
       do k = 1, tp%n
         lam(:, k) = lambda_f_at(field%pf, mesh, f, t, tp%p(1, k), tp%p(2, k))
       end do
@@ -349,8 +370,9 @@ contains
     type(status_t), intent(out) :: st
     real(dp), allocatable :: xy(:,:)
     real(dp), parameter :: third = 1.0_dp / 3.0_dp
-    integer :: e, n1, n2
-    allocate (xy(2, 2 * mesh%nedge))
+    integer :: e, n1, n2, ist
+    allocate (xy(2, 2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the points of the edge-end unknowns', 4 * mesh%nedge, BYTES_REAL)) return
     do e = 1, mesh%nedge
       n1 = mesh%edge_nodes(1, e)
       n2 = mesh%edge_nodes(2, e)
@@ -394,13 +416,16 @@ contains
   end subroutine start_from_primal
 
   !> x(dof) = mean over the (one or two) parameters sharing it of sgn * beta.
-  subroutine average_to_global(map, beta, x)
+  subroutine average_to_global(map, beta, x, st)
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: beta(:,:)
     real(dp), intent(out) :: x(:)
+    type(status_t), intent(inout) :: st
     real(dp), allocatable :: cnt(:)
-    integer :: t, k
-    allocate (cnt(size(x)), source=0.0_dp)
+    integer :: t, k, ist
+    allocate (cnt(size(x)), stat=ist)
+    if (alloc_failed(ist, st, 'the flux averages', size(x), BYTES_REAL)) return
+    cnt = 0.0_dp
     x = 0.0_dp
     do t = 1, map%ntri
       do k = 1, 6

@@ -15,6 +15,7 @@ module dualsig_problem_primal
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
   use dualsig_strings, only: itoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
+  use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
@@ -47,11 +48,13 @@ contains
     real(dp), allocatable, intent(out) :: bnd(:)
     type(status_t), intent(out) :: st
     logical, intent(in), optional :: every_loop_gamma_u
-    integer :: j, m, nu, l
+    integer :: j, m, nu, l, ist
     character(len=200) :: buf
 
-    allocate (kind(mesh%nnode), source=BOUND_FREE)
-    allocate (bnd(mesh%nnode), source=0.0_dp)
+    allocate (kind(mesh%nnode), bnd(mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the primal bounds', 3 * mesh%nnode, BYTES_INT)) return
+    kind = BOUND_FREE
+    bnd = 0.0_dp
     do j = 1, size(gamma_u)
       if (gamma_u(j) /= 0 .and. any(gamma_a == gamma_u(j))) then
         write (buf, '(a,i0,a)') 'boundary marker ', gamma_u(j), ' is listed in both Gamma_u and Gamma_a ' // &
@@ -150,17 +153,22 @@ contains
   end subroutine primal_constraints
 
   !> Matrix and load vector of the primal problem: A = K + M for P1, K for P2 (no mass
-  !> matrix), F_j = (f, phi_j)_0 with the quadrature `rule`.
-  subroutine primal_assemble(mesh, problem, f, rule, sys)
+  !> matrix), F_j = (f, phi_j)_0 with the quadrature `rule`.  Out of memory:
+  !> DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine primal_assemble(mesh, problem, f, rule, sys, st)
     type(mesh_t), intent(in) :: mesh
     integer, intent(in) :: problem
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(primal_system_t), intent(inout) :: sys
+    type(status_t), intent(out), optional :: st
+    integer :: ist
     sys%problem = problem
-    call assemble_p1_operator(mesh, merge(1.0_dp, 0.0_dp, problem == PROBLEM_P1), sys%a)
+    call assemble_p1_operator(mesh, merge(1.0_dp, 0.0_dp, problem == PROBLEM_P1), sys%a, st)
+    if (has_failed(st)) return
     if (allocated(sys%load)) deallocate (sys%load)
-    allocate (sys%load(mesh%nnode))
+    allocate (sys%load(mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the primal load vector', mesh%nnode, BYTES_REAL)) return
     call assemble_load(mesh, f, rule, sys%load)
   end subroutine primal_assemble
 end module dualsig_problem_primal

@@ -82,9 +82,9 @@ contains
       scene%description = 'P1 on (0,1)^2, manufactured: contact for x<1/3, separation for x>1/3 on y=0'
       scene%nbreaks = 1
       scene%x_breaks(1) = c                     ! f is continuous with a kink at x = c
-      allocate (scene%f, source=function_field(p1_contact_f))
-      allocate (scene%u, source=function_field(p1_contact_u))
-      allocate (scene%grad_u, source=function_vector_field(p1_contact_grad))
+      allocate (scene%f, source=function_field(p1_contact_f))   ! small: a field object
+      allocate (scene%u, source=function_field(p1_contact_u))   ! small: a field object
+      allocate (scene%grad_u, source=function_vector_field(p1_contact_grad))   ! small: a field object
     case ('p2_contact')
       scene%problem = PROBLEM_P2
       scene%has_exact = .true.
@@ -94,9 +94,9 @@ contains
       scene%description = 'P2 on (0,1)^2, manufactured: Signorini on y=0 (contact x<1/3), u=0 elsewhere'
       scene%nbreaks = 1
       scene%x_breaks(1) = c
-      allocate (scene%f, source=function_field(p2_contact_f))
-      allocate (scene%u, source=function_field(p2_contact_u))
-      allocate (scene%grad_u, source=function_vector_field(p2_contact_grad))
+      allocate (scene%f, source=function_field(p2_contact_f))   ! small: a field object
+      allocate (scene%u, source=function_field(p2_contact_u))   ! small: a field object
+      allocate (scene%grad_u, source=function_vector_field(p2_contact_grad))   ! small: a field object
     case ('p1_jump')
       scene%problem = PROBLEM_P1
       scene%has_exact = .true.
@@ -105,9 +105,9 @@ contains
       scene%description = 'P1 on (0,1)^2, manufactured as p1_contact plus a term whose f jumps across x = 0.6'
       scene%nbreaks = 2
       scene%x_breaks(1:2) = [c, d_jump]         ! a kink at x = c, a jump at x = d
-      allocate (scene%f, source=function_field(p1_jump_f))
-      allocate (scene%u, source=function_field(p1_jump_u))
-      allocate (scene%grad_u, source=function_vector_field(p1_jump_grad))
+      allocate (scene%f, source=function_field(p1_jump_f))   ! small: a field object
+      allocate (scene%u, source=function_field(p1_jump_u))   ! small: a field object
+      allocate (scene%grad_u, source=function_vector_field(p1_jump_grad))   ! small: a field object
     case ('p2_jump')
       scene%problem = PROBLEM_P2
       scene%has_exact = .true.
@@ -117,20 +117,20 @@ contains
       scene%description = 'P2 on (0,1)^2, manufactured as p2_contact plus a term whose f jumps across x = 0.6'
       scene%nbreaks = 2
       scene%x_breaks(1:2) = [c, d_jump]
-      allocate (scene%f, source=function_field(p2_jump_f))
-      allocate (scene%u, source=function_field(p2_jump_u))
-      allocate (scene%grad_u, source=function_vector_field(p2_jump_grad))
+      allocate (scene%f, source=function_field(p2_jump_f))   ! small: a field object
+      allocate (scene%u, source=function_field(p2_jump_u))   ! small: a field object
+      allocate (scene%grad_u, source=function_vector_field(p2_jump_grad))   ! small: a field object
     case ('p1_lshape_load')
       scene%problem = PROBLEM_P1
       scene%gamma_a_markers(1:6) = [1, 2, 3, 4, 5, 6]
       scene%description = 'P1 on the L-shape, f = 4 - 10 (x^2 + y^2): contact set found by the solver'
-      allocate (scene%f, source=function_field(lshape_p1_f))
+      allocate (scene%f, source=function_field(lshape_p1_f))   ! small: a field object
     case ('p2_lshape_load')
       scene%problem = PROBLEM_P2
       scene%gamma_a_markers(1:3) = [1, 2, 3]
       scene%gamma_u_markers(1:3) = [4, 5, 6]
       scene%description = 'P2 on the L-shape, f = 20 x + 5 sin(pi y): Signorini on the lower sides'
-      allocate (scene%f, source=function_field(lshape_p2_f))
+      allocate (scene%f, source=function_field(lshape_p2_f))   ! small: a field object
     case ('p2_lshape_corner')
       ! (issue 14) a load that is positive at the re-entrant corner (a strong r^(2/3)
       ! singularity with Dirichlet sides there) and negative at the outer corners (contact
@@ -140,14 +140,14 @@ contains
       scene%gamma_a_markers(1:4) = [1, 4, 5, 6]
       scene%description = 'P2 on the L-shape, f = 10 - 15 (x^2 + y^2): u = 0 on the re-entrant sides, ' // &
         'Signorini on the outer ones'
-      allocate (scene%f, source=function_field(lshape_corner_f))
+      allocate (scene%f, source=function_field(lshape_corner_f))   ! small: a field object
     case ('p2_holed_load')
       scene%problem = PROBLEM_P2
       scene%gamma_u_markers(1:2) = [4, 8]
       scene%gamma_a_markers(1:6) = [1, 2, 3, 5, 6, 7]
       scene%description = 'P2 on the square with a square hole, f = 10 cos(2 pi x) cos(2 pi y): ' // &
         'u = 0 on the left side of each loop, Signorini elsewhere'
-      allocate (scene%f, source=function_field(holed_p2_f))
+      allocate (scene%f, source=function_field(holed_p2_f))   ! small: a field object
     case default
       call set_error(st, DS_ERR_INPUT, 'unknown scene "' // trim(name) // '"; expected one of: ' &
                      // scene_names)

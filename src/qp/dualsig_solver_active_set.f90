@@ -40,6 +40,7 @@ module dualsig_solver_active_set
   use dualsig_qp_types, only: BOUND_LOWER, BOUND_FIXED, kkt_residual
   use dualsig_status, only: status_t, set_warning, set_error, set_alloc_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_LAPACK
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL, BYTES_INT
   implicit none
   private
 
@@ -507,10 +508,12 @@ contains
     type(status_t), intent(out) :: st
     integer, allocatable :: zlist(:), ylist(:), pos(:)
     real(dp), allocatable :: rhs(:,:), sol(:,:)
-    integer :: n, j, p, mz, my, keep, c
+    integer :: n, j, p, mz, my, keep, c, ist
     n = a%n
     if (.not. allocated(w%cache_z)) then
-      allocate (w%cache_idx(capacity), w%cache_has_y(capacity), w%cache_z(n, capacity), w%cache_y(n, capacity))
+      allocate (w%cache_idx(capacity), w%cache_has_y(capacity), w%cache_z(n, capacity), w%cache_y(n, capacity), &
+                stat=ist)
+      if (alloc_failed(ist, st, 'the active set column cache', 2_i8 * n * capacity, BYTES_REAL)) return
       w%ncache = 0
     end if
     zlist = pack(d, [(cache_position(w, d(j)) == 0, j=1, size(d))])
@@ -535,14 +538,16 @@ contains
       w%cache_idx(w%ncache) = zlist(j)
       w%cache_has_y(w%ncache) = .false.
     end do
-    allocate (pos(size(d)))
+    allocate (pos(size(d)), stat=ist)
+    if (alloc_failed(ist, st, 'the active set changes', size(d), BYTES_INT)) return
     do j = 1, size(d)
       pos(j) = cache_position(w, d(j))
     end do
     ylist = pack(d, need_y .and. .not. w%cache_has_y(pos))
     my = size(ylist)
     if (mz + my == 0) return
-    allocate (rhs(n, mz + my), sol(n, mz + my))
+    allocate (rhs(n, mz + my), sol(n, mz + my), stat=ist)
+    if (alloc_failed(ist, st, 'the active set block solve', 2_i8 * n * (mz + my), BYTES_REAL)) return
     rhs = 0.0_dp
     do j = 1, mz
       rhs(zlist(j), j) = 1.0_dp
@@ -590,37 +595,37 @@ contains
     type(status_t), intent(out) :: st
     integer, allocatable :: d(:), ipiv(:), pos(:)
     real(dp), allocatable :: z(:,:), c1(:,:), h(:,:), t(:,:), s(:,:), xd(:), ud(:,:), y0(:), cd(:)
-    integer :: n, k, j, p, i, info, r
+    integer :: n, k, j, p, i, info, r, ist
     logical, allocatable :: in_d(:), need_y(:)
     external :: dgesv
     n = size(b)
     d = pack([(i, i=1, n)], w%fixed .neqv. held)
     k = size(d)
     ! c_d: the change of the bound value moved to the right-hand side (newly held: -bnd)
-    allocate (cd(k))
+    allocate (cd(k), in_d(n), pos(k), ud(k, k), y0(n), h(n, k + 1), z(n, k), stat=ist)
+    if (alloc_failed(ist, st, 'the bordered active set system', int(n, i8) * (2 * k + 3) + k * (k + 2_i8), BYTES_REAL)) &
+      return
     do j = 1, k
       cd(j) = merge(-bnd(d(j)), bnd(d(j)), held(d(j)))
     end do
     need_y = .not. held(d) .or. (w%base_valid .and. cd /= 0.0_dp)
     call cache_columns(a, w, d, need_y, capacity, st)
     if (st%code /= 0) return
-    allocate (in_d(n), source=.false.)
+    in_d = .false.
     in_d(d) = .true.
-    allocate (pos(k))
     do j = 1, k
       pos(j) = cache_position(w, d(j))
     end do
-    z = w%cache_z(:, pos)
+    z(:, :) = w%cache_z(:, pos)
     c1 = z(d, :)
     ! u_dj(D): entries of column d_j of a in the rows of D that are not held in F1
-    allocate (ud(k, k), source=0.0_dp)
+    ud = 0.0_dp
     do j = 1, k
       do i = 1, k
         if (.not. w%fixed(d(i))) ud(i, j) = a_value(d(i), d(j))
       end do
     end do
     ! H = [M1^{-1} B, M1^{-1} b_R]
-    allocate (y0(n), h(n, k + 1))
     if (w%base_valid) then
       y0 = w%base_sol - matmul(z, w%base_rhs(d))
       do j = 1, k
@@ -640,7 +645,8 @@ contains
     h(:, k + 1) = y0
     ! G = A_RR^{-1} [B, b_R] = H - Z C1^{-1} H(D, :)   (stored in h)
     t = h(d, :)
-    allocate (ipiv(k))
+    allocate (ipiv(k), s(k, k), xd(k), stat=ist)
+    if (alloc_failed(ist, st, 'the capacitance system', k * (k + 2_i8), BYTES_REAL)) return
     call dgesv(k, k + 1, c1, k, ipiv, t, k, info)
     if (info /= 0) then
       call set_error(st, DS_ERR_LAPACK, 'active set: capacitance matrix singular (dgesv info = ' // itoa(info) // ')')
@@ -648,7 +654,6 @@ contains
     end if
     h = h - matmul(z, t)
     ! S = M(held)_DD - B^T G_B,  x_D = S^{-1} (b_D - B^T G_b); B^T v by the sparse columns
-    allocate (s(k, k), xd(k))
     do j = 1, k
       do i = 1, k
         s(i, j) = m_dd(d(i), d(j)) - b_dot(i, h(:, j))

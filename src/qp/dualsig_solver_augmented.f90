@@ -31,6 +31,7 @@ module dualsig_solver_augmented
                                            boundary_schur_factor, boundary_schur_solve, boundary_schur_free
   use dualsig_status, only: status_t, set_warning, set_error, is_ok, DS_WARN_NOT_CONVERGED, DS_ERR_INPUT
   use dualsig_strings, only: itoa, rtoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -85,7 +86,7 @@ contains
     type(boundary_schur_result_t) :: bres
     logical :: use_schur
     real(dp), allocatable :: mu(:), w(:), rhs(:), dtd_diag(:), absx(:), scale_w(:)
-    integer :: i, p, q, outer
+    integer :: i, p, q, outer, ist
     logical :: inner_ok
     integer, allocatable :: cols(:)
     real(dp), allocatable :: blk(:,:), vals(:)
@@ -101,7 +102,9 @@ contains
     end if
     use_schur = trim(settings%inner) == 'schur' .and. count(kind == BOUND_LOWER) <= settings%max_schur
     ! penalty scale from the diagonals of A and D^T D
-    allocate (dtd_diag(a%n), source=0.0_dp)
+    allocate (dtd_diag(a%n), stat=ist)
+    if (alloc_failed(ist, st, 'the augmented Lagrangian scaling', a%n, BYTES_REAL)) return
+    dtd_diag = 0.0_dp
     do i = 1, dmat%m
       do p = dmat%rowptr(i), dmat%rowptr(i + 1) - 1
         dtd_diag(dmat%col(p)) = dtd_diag(dmat%col(p)) + dmat%val(p)**2
@@ -115,15 +118,16 @@ contains
       cols = dmat%col(dmat%rowptr(i):dmat%rowptr(i + 1) - 1)
       vals = dmat%val(dmat%rowptr(i):dmat%rowptr(i + 1) - 1)
       if (allocated(blk)) deallocate (blk)
-      allocate (blk(size(cols), size(cols)))
+      allocate (blk(size(cols), size(cols)))   ! small: one row of D (the unknowns of one element)
       do q = 1, size(cols)
         blk(:, q) = res%r * vals * vals(q)
       end do
       call csr_add_block(ar, cols, blk)
     end do
 
-    allocate (mu(dmat%m), source=0.0_dp)
-    allocate (w(dmat%m), rhs(a%n), absx(a%n), scale_w(dmat%m))
+    allocate (mu(dmat%m), w(dmat%m), rhs(a%n), absx(a%n), scale_w(dmat%m), stat=ist)
+    if (alloc_failed(ist, st, 'the augmented Lagrangian vectors', 3 * dmat%m + 2 * a%n, BYTES_REAL)) return
+    mu = 0.0_dp
     aset%max_iter = settings%max_active
     ! projected SOR on A + r D^T D (condition ~ r) would not converge in any useful time
     aset%fallback = .false.

@@ -42,6 +42,7 @@ module dualsig_solver_boundary_schur
   use dualsig_solver_dense_qp, only: dense_qp_settings_t, dense_qp_result_t, dense_bound_qp
   use dualsig_status, only: status_t, set_error, set_alloc_error, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -153,7 +154,8 @@ contains
     end if
     bs%n = m%n
     bs%nt = nt
-    allocate (bs%ltt(nt, nt), bs%s(nt, nt), bs%active(nt))
+    allocate (bs%ltt(nt, nt), bs%s(nt, nt), bs%active(nt), stat=i)
+    if (alloc_failed(i, st, 'the boundary Schur complement', 2_i8 * nt * nt, BYTES_REAL)) return
     call cholesky_trailing_block(bs%chol, nt, bs%ltt, st)
     if (.not. is_ok(st)) return
     if (nt > 0) call lower_times_transpose(bs%ltt, bs%s, st)
@@ -175,7 +177,7 @@ contains
     type(status_t), intent(out) :: st
     type(dense_qp_result_t) :: qres
     real(dp), allocatable :: z(:), w(:), g(:), xt(:), lt(:)
-    integer :: n, nt, t0
+    integer :: n, nt, t0, ist
     external :: dtrmv, dtrsv
 
     n = bs%n
@@ -185,7 +187,8 @@ contains
       return
     end if
     t0 = n - nt
-    allocate (z(n), w(n))
+    allocate (z(n), w(n), stat=ist)
+    if (alloc_failed(ist, st, 'the boundary Schur solve', 2 * n, BYTES_REAL)) return
     ! z = L^{-1} P b, the fixed values moved to the right-hand side: M(F) x = b - M x_F on
     ! the others, x_F = bnd_F
     if (bs%has_fixed) then
@@ -214,7 +217,8 @@ contains
           bs%active = x(bs%perm(t0 + 1:n)) <= lt
         end if
       end if
-      allocate (xt(nt))
+      allocate (xt(nt), stat=ist)
+      if (alloc_failed(ist, st, 'the boundary Schur solve', nt, BYTES_REAL)) return
       call dense_bound_qp(bs%s, g, lt, bs%active, xt, settings%qp, qres, st)
       if (.not. is_ok(st)) return
       bs%have_active = .true.

@@ -22,6 +22,7 @@ module dualsig_solver_dense_qp
   use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_LAPACK, DS_WARN_NOT_CONVERGED
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -55,7 +56,7 @@ contains
     real(dp), allocatable :: lam(:), terms(:), sii(:,:), rhs(:)
     integer, allocatable :: inact(:)
     logical, allocatable :: flip(:)
-    integer :: m, it, ni, ninf, best, stall, info, j, jmax
+    integer :: m, it, ni, ninf, best, stall, info, j, jmax, ist
     real(dp) :: vscale
     external :: dpotrf, dpotrs
 
@@ -64,7 +65,8 @@ contains
       call set_error(st, DS_ERR_INPUT, 'dense_bound_qp: inconsistent sizes (m = ' // itoa(m) // ')')
       return
     end if
-    allocate (lam(m), terms(m), flip(m), rhs(m), inact(m))
+    allocate (lam(m), terms(m), flip(m), rhs(m), inact(m), stat=ist)
+    if (alloc_failed(ist, st, 'the dense bound-constrained QP', 5 * m, BYTES_REAL)) return
     best = m + 1
     stall = 0
     do it = 1, settings%max_iter

@@ -17,6 +17,7 @@ module dualsig_solver_psor
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -103,7 +104,7 @@ contains
     real(dp), allocatable :: work(:)
     type(psor_plan_t) :: plan
     character(len=200) :: buf
-    integer :: it, window_it
+    integer :: it, window_it, ist
     real(dp) :: window_res
 
     if (.not. (settings%omega > 0.0_dp .and. settings%omega < 2.0_dp)) then
@@ -119,7 +120,8 @@ contains
       call set_error(st, DS_ERR_INPUT, 'psor: the matrix has a non-positive diagonal entry')
       return
     end if
-    allocate (work(a%n))
+    allocate (work(a%n), stat=ist)
+    if (alloc_failed(ist, st, 'the projected SOR work vector', a%n, BYTES_REAL)) return
     where (kind == BOUND_FIXED) x = bnd
     where (kind == BOUND_LOWER) x = max(x, bnd)
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work)

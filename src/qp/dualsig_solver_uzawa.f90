@@ -24,6 +24,7 @@ module dualsig_solver_uzawa
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   use dualsig_strings, only: itoa, rtoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
 
@@ -72,13 +73,14 @@ contains
     real(dp), allocatable :: rhs(:), w(:), z0(:)
     real(dp) :: bnorm, r0, rho
     logical :: automatic, diverged
-    integer :: it
+    integer :: it, ist
 
     if (settings%rho < 0.0_dp .or. settings%max_iter < 1 .or. .not. settings%tol > 0.0_dp) then
       call set_error(st, DS_ERR_INPUT, 'uzawa: need rho >= 0 (0 = automatic), max_iter >= 1, tol > 0')
       return
     end if
-    allocate (rhs(size(b)), w(bmat%m))
+    allocate (rhs(size(b)), w(bmat%m), stat=ist)
+    if (alloc_failed(ist, st, 'the Uzawa iteration vectors', size(b) + bmat%m, BYTES_REAL)) return
     z0 = z
     bnorm = norm2(b)
     if (bnorm == 0.0_dp) bnorm = 1.0_dp
@@ -164,8 +166,9 @@ contains
     type(status_t), intent(out) :: st
     real(dp), allocatable :: v(:), w(:), x(:), rhs(:)
     real(dp) :: lambda_old
-    integer :: k
-    allocate (v(bmat%m), w(bmat%m), x(bmat%n), rhs(bmat%n))
+    integer :: k, ist
+    allocate (v(bmat%m), w(bmat%m), x(bmat%n), rhs(bmat%n), stat=ist)
+    if (alloc_failed(ist, st, 'the power iteration vectors', 2 * (bmat%m + bmat%n), BYTES_REAL)) return
     lambda = 0.0_dp
     iterations = 0
     if (bmat%m == 0) return
