@@ -120,7 +120,7 @@ program dualsig_bench
         call mesh_prolongate_p1(mesh, finer, u_prev, u_start)
         mesh = finer
       end if
-      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys, st=st)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
       allocate (x(mesh%nnode), y(mesh%nnode))
@@ -236,7 +236,7 @@ contains
       ! the level's matrix again (untimed), for the baselines and the QP export
       mesh = an%mesh
       u = res%u
-      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys, st=st)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
       ! baseline: the same matrix with only the Dirichlet rows, one analyse+factorise+solve
@@ -306,7 +306,7 @@ contains
       ! the feasible dual, against one analyse + factorisation of its own matrix
       if (scene%problem == PROBLEM_P1) then
         allocate (bd(2 * mesh%nnode))
-        call assemble_dual_p1(mesh, scene%f, tri_rule(5), ad, bd)
+        call assemble_dual_p1(mesh, scene%f, tri_rule(5), ad, bd, st=st)
         t0 = wall_seconds()
         call cholesky_factor(ad, chol, st, ORDERING_AMD)
         tdba = wall_seconds() - t0
@@ -439,7 +439,7 @@ contains
       pb%gamma_u = scene%gamma_u_markers
       pb%gamma_a = scene%gamma_a_markers
       pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
-      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys, st=st)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
       ar = sys%a
@@ -480,8 +480,8 @@ contains
     real(dp) :: t0
     integer :: ord
     call equilibrium_elements(mesh, c, ae, dd, st)
-    call equilibrium_map(mesh, map)
-    call assemble_equilibrium_global(map, ae, ad)
+    call equilibrium_map(mesh, map, st=st)
+    call assemble_equilibrium_global(map, ae, ad, st=st)
     t0 = wall_seconds()
     call cholesky_factor(ad, chol, st, ORDERING_AMD)
     tdba = wall_seconds() - t0
@@ -574,7 +574,7 @@ contains
       end if
       if (level < 3) cycle
       ! the primal solution for the bounds
-      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys)
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys, st=st)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
       call jacobi_scaled_extremes(sys%a, sys%kind /= BOUND_FIXED, 400, 1.0e-3_dp, lmin, lmax, steps, st)
@@ -584,7 +584,7 @@ contains
       call psor_solve(sys%a, sys%load, sys%kind, sys%bnd, u, set, res, st)
       ! one analyse + factorisation of the Gram matrix A (median of 3)
       allocate (b(2 * mesh%nnode))
-      call assemble_dual_p1(mesh, scene%f, tri_rule(5), a, b)
+      call assemble_dual_p1(mesh, scene%f, tri_rule(5), a, b, st=st)
       do k = 1, 3
         t0 = wall_seconds()
         call cholesky_factor(a, chol, st)
@@ -599,7 +599,7 @@ contains
         t0 = wall_seconds()
         call dual_p1_solve(mesh, scene%f, tri_rule(5), dset, q, dres, st)
         secs = wall_seconds() - t0
-        call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(16), bounds)
+        call dual_p1_bounds(mesh, u, q, scene%f, tri_rule(16), bounds, st=st)
         call dual_p1_errors(mesh, q, scene%f, scene%u, scene%grad_u, tri_rule(16), eq, ediv, eqq)
         write (*, '(i5,i11,a12,i8,f10.3,f10.3,f14.2,es13.4,es12.4)') level, 2 * mesh%nnode, trim(methods(m)), &
           dres%iterations, secs, t_fact, secs / t_fact, eqq, sqrt(bounds%est)

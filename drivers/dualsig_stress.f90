@@ -629,7 +629,7 @@ contains
       type(psor_result_t) :: pres
       type(status_t) :: st0, st2
       type(level_t) :: none
-      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(load_degree), sys)
+      call primal_assemble(mesh, scene%problem, scene%f, tri_rule(load_degree), sys, st=st)
       call primal_constraints(mesh, scene%problem, [2, 3, 4], [1], sys%kind, sys%bnd, st)
       u = 0.0_dp
       pset%omega = 0.0_dp
@@ -686,9 +686,9 @@ contains
     real(dp) :: t0
     call scene_lookup('p1_contact', scene, st)
     allocate (b(2 * mesh_in%nnode), y(2 * mesh_in%nnode))
-    call assemble_dual_p1(mesh_in, scene%f, tri_rule(load_degree), a, b)
+    call assemble_dual_p1(mesh_in, scene%f, tri_rule(load_degree), a, b, st=st)
     call chol%factor(a, st)
-    call dual_p1_constraint_rows(mesh_in, bmat, row_node)
+    call dual_p1_constraint_rows(mesh_in, bmat, row_node, st=st)
     allocate (z(bmat%m), zero(bmat%m), source=0.0_dp)
     allocate (row_kind(bmat%m), source=ROW_INEQUALITY)
     ! the automatic rho, for reference (converges)
@@ -746,7 +746,7 @@ contains
     qm(:, 1) = v
     qm(:, 2) = w
     bm = matmul(qm, matmul(reshape([sqrt(lam_small), 0.0_dp, 0.0_dp, sqrt(lam_big)], [2, 2]), transpose(qm)))
-    call rect_from_triplets(2, 2, [1, 1, 2, 2], [1, 2, 1, 2], [bm(1, 1), bm(1, 2), bm(2, 1), bm(2, 2)], bmat)
+    call rect_from_triplets(2, 2, [1, 1, 2, 2], [1, 2, 1, 2], [bm(1, 1), bm(1, 2), bm(2, 1), bm(2, 2)], bmat, st=st)
     blocks(:, :, 1) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [2, 2])
     call ident%factor(blocks, st)
     ! b pushes y out of {B y >= 0} in both directions: both constraints active at the solution

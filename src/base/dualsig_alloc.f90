@@ -11,10 +11,6 @@
 !> `alloc_check` is the same for pure procedures.  Allocations of a fixed small size
 !> carry the comment `! small: ...` instead (tools/check_alloc.py checks both).
 !>
-!> The status may be an absent optional argument (a public routine whose status argument
-!> is optional, after fortran-lang/stdlib): the caller that did not ask for the status
-!> then gets what a failed allocate without stat= gives, the program stops, here with the
-!> message.  Library code always passes a status.
 module dualsig_alloc
   use, intrinsic :: iso_fortran_env, only: int32, int64
   use dualsig_status, only: status_t, set_alloc_error, is_error
@@ -42,7 +38,7 @@ contains
   !> alloc_failed for a default-integer element count.
   logical function alloc_failed_i32(ist, st, what, nelem, elem_bytes) result(failed)
     integer, intent(in) :: ist                  !! the stat= of the allocate
-    type(status_t), intent(inout), optional :: st  !! set on failure, untouched otherwise
+    type(status_t), intent(inout) :: st  !! set on failure, untouched otherwise
     character(len=*), intent(in) :: what        !! what was allocated ("the stiffness matrix")
     integer(int32), intent(in) :: nelem         !! number of elements requested (all arrays)
     integer, intent(in) :: elem_bytes           !! bytes per element (BYTES_REAL, ...)
@@ -53,7 +49,7 @@ contains
   !> alloc_failed for a 64-bit element count.
   logical function alloc_failed_i64(ist, st, what, nelem, elem_bytes) result(failed)
     integer, intent(in) :: ist                  !! the stat= of the allocate
-    type(status_t), intent(inout), optional :: st  !! set on failure, untouched otherwise
+    type(status_t), intent(inout) :: st  !! set on failure, untouched otherwise
     character(len=*), intent(in) :: what        !! what was allocated
     integer(int64), intent(in) :: nelem         !! number of elements requested (all arrays)
     integer, intent(in) :: elem_bytes           !! bytes per element
@@ -64,7 +60,7 @@ contains
   !> alloc_check for a default-integer element count.
   pure subroutine alloc_check_i32(ist, st, what, nelem, elem_bytes)
     integer, intent(in) :: ist                  !! the stat= of the allocate
-    type(status_t), intent(inout), optional :: st  !! set on failure, untouched otherwise
+    type(status_t), intent(inout) :: st  !! set on failure, untouched otherwise
     character(len=*), intent(in) :: what        !! what was allocated
     integer(int32), intent(in) :: nelem         !! number of elements requested
     integer, intent(in) :: elem_bytes           !! bytes per element
@@ -74,32 +70,25 @@ contains
   !> alloc_check for a 64-bit element count.
   pure subroutine alloc_check_i64(ist, st, what, nelem, elem_bytes)
     integer, intent(in) :: ist                  !! the stat= of the allocate
-    type(status_t), intent(inout), optional :: st  !! set on failure, untouched otherwise
+    type(status_t), intent(inout) :: st  !! set on failure, untouched otherwise
     character(len=*), intent(in) :: what        !! what was allocated
     integer(int64), intent(in) :: nelem         !! number of elements requested
     integer, intent(in) :: elem_bytes           !! bytes per element
     if (ist /= 0) call report(st, nelem * elem_bytes, what)
   end subroutine alloc_check_i64
 
-  !> True when the optional status st is present and holds an error (a routine with an
-  !> optional status passes it on to the routines it calls, then checks it with this).
+  !> True when st holds an error (a routine passes its status on to the routines it calls,
+  !> then checks it with this).
   pure logical function has_failed(st)
-    type(status_t), intent(in), optional :: st  !! the optional status
-    has_failed = .false.
-    if (present(st)) has_failed = is_error(st)
+    type(status_t), intent(in) :: st            !! the status
+    has_failed = is_error(st)
   end function has_failed
 
-  !> Set st to the out-of-memory error; without st, stop with its message (see above).
+  !> Set st to the out-of-memory error naming what was allocated and its size.
   pure subroutine report(st, nbytes, what)
-    type(status_t), intent(inout), optional :: st  !! the caller's status, if it asked
+    type(status_t), intent(inout) :: st         !! the caller's status
     integer(int64), intent(in) :: nbytes        !! size of the failed request
     character(len=*), intent(in) :: what        !! what was allocated
-    type(status_t) :: own
-    if (present(st)) then
-      call set_alloc_error(st, nbytes, what)
-    else
-      call set_alloc_error(own, nbytes, what)
-      error stop own%msg
-    end if
+    call set_alloc_error(st, nbytes, what)
   end subroutine report
 end module dualsig_alloc

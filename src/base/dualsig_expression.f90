@@ -1108,7 +1108,7 @@ contains
     logical, intent(out) :: ok
     integer, intent(out) :: ipoint
     logical, intent(in), optional :: gradient
-    type(status_t), intent(inout), optional :: st  !! out of memory: ok, DS_ERR_MEMORY (see dualsig_alloc)
+    type(status_t), intent(inout) :: st  !! out of memory: ok, DS_ERR_MEMORY (see dualsig_alloc)
     type(ieee_status_type) :: saved
     real(dp), allocatable :: v(:), gx(:), gy(:)
     logical :: with_gradient

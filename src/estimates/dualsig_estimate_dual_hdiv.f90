@@ -52,7 +52,7 @@ contains
     real(dp), intent(in) :: u(:), x(:)
     type(load_data_t), intent(in) :: load
     type(dual_p1_bounds_t), intent(out) :: bnd
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: ist
     type(tri_rule_t) :: prule, lrule
     type(tri_points_t) :: tp

@@ -50,7 +50,7 @@ contains
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(dual_p1_bounds_t), intent(out) :: bnd
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: ist
     real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), fq, uq, qq(2)
@@ -105,7 +105,7 @@ contains
     real(dp), intent(in) :: u(:), q(:)
     type(load_data_t), intent(in) :: load
     type(dual_p1_bounds_t), intent(out) :: bnd
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: ist
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), qq(2), pv
     real(dp) :: e1, e2, fu, uu, qsq, hsq, c, centroid(2)

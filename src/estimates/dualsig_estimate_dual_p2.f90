@@ -53,7 +53,7 @@ contains
     logical, intent(in) :: is_gamma_a(:)
     type(tri_rule_t), intent(in) :: rule
     type(dual_p2_bounds_t), intent(out) :: bnd
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: ist
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, flux(2), ub(2), len
     real(dp) :: bary(3)
@@ -125,7 +125,7 @@ contains
     type(load_data_t), intent(in) :: load
     logical, intent(in) :: is_gamma_a(:)
     type(dual_p2_bounds_t), intent(out) :: bnd
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: ist
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, lsq, osc_t
     type(tri_rule_t) :: rule

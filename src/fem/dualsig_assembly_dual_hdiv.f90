@@ -114,7 +114,7 @@ contains
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(hdiv_system_t), intent(out) :: sys
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer, allocatable :: cliques(:,:)
     type(tri_rule_t) :: exact_rule
     type(rt1_geometry_t) :: g
@@ -250,7 +250,7 @@ contains
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: rec_k(:,:,:)
     type(rect_t), intent(out) :: p
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     integer, allocatable :: rows(:), cols(:)
     real(dp), allocatable :: vals(:)
     type(rt1_geometry_t) :: gc

@@ -78,7 +78,7 @@ contains
     type(csr_t), intent(out) :: a
     real(dp), intent(out) :: b(:)
     real(dp), intent(in), optional :: transform(:,:,:)
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer, allocatable :: pairs(:,:)
     real(dp) :: ae(6, 6), be(6), te(6, 6), xy(2, 3)
     integer :: e, i, j, k, t, dofs(6), n, r, s, ist

@@ -43,7 +43,7 @@ contains
   subroutine equilibrium_map(mesh, map, st)
     type(mesh_t), intent(in) :: mesh
     type(equilibrium_map_t), intent(out) :: map
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: t, k, e, node, jend, ist
     map%ntri = mesh%ntri
     map%nedge = mesh%nedge
@@ -84,7 +84,7 @@ contains
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: ae(:,:,:)
     type(csr_t), intent(out) :: a
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     real(dp) :: blk(6, 6)
     integer :: t, r, s
     call csr_pattern_from_cliques(2 * map%nedge, map%dof, a, st)
@@ -130,7 +130,7 @@ contains
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: d(:,:)
     type(rect_t), intent(out) :: dmat
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: t, ist
     integer, allocatable :: r(:), c(:)
     real(dp), allocatable :: v(:)
@@ -153,7 +153,7 @@ contains
     real(dp), intent(in) :: gh(:,:)
     logical, allocatable, intent(out) :: on_gamma_a(:)
     real(dp), allocatable, intent(out) :: bnd(:)
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: j, e, i, node, ist
     allocate (on_gamma_a(2 * mesh%nedge), bnd(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the bounds on Gamma_a', 4 * mesh%nedge, BYTES_REAL)) return
@@ -185,7 +185,7 @@ contains
     type(rect_t), intent(out) :: bmat
     integer, allocatable, intent(out) :: row_kind(:)
     real(dp), allocatable, intent(out) :: e(:)
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer, allocatable :: first(:), r(:), c(:)
     real(dp), allocatable :: v(:)
     integer :: t, k, nrow, nnz, g, idx, ndof, ist

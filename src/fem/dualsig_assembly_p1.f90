@@ -22,7 +22,7 @@ contains
   subroutine assemble_stiffness(mesh, k, st)
     type(mesh_t), intent(in) :: mesh
     type(csr_t), intent(out) :: k
-    type(status_t), intent(out), optional :: st      !! out of memory (see dualsig_alloc)
+    type(status_t), intent(out) :: st      !! out of memory (see dualsig_alloc)
     call assemble_p1_operator(mesh, 0.0_dp, k, st)
   end subroutine assemble_stiffness
 
@@ -30,7 +30,7 @@ contains
   subroutine assemble_mass(mesh, m, st)
     type(mesh_t), intent(in) :: mesh
     type(csr_t), intent(out) :: m
-    type(status_t), intent(out), optional :: st      !! out of memory (see dualsig_alloc)
+    type(status_t), intent(out) :: st      !! out of memory (see dualsig_alloc)
     real(dp) :: me(3, 3), xy(2, 3)
     integer :: t
     call csr_pattern_from_edges(mesh%nnode, mesh%edge_nodes, m, st)
@@ -50,7 +50,7 @@ contains
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: mass_coef
     type(csr_t), intent(out) :: a
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     real(dp) :: ke(3, 3), me(3, 3), xy(2, 3)
     integer :: t
     call csr_pattern_from_edges(mesh%nnode, mesh%edge_nodes, a, st)

@@ -59,7 +59,7 @@ contains
   subroutine locator_build(mesh, loc, st)
     type(mesh_t), intent(in) :: mesh
     type(point_locator_t), intent(out) :: loc
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     real(dp) :: x1, y1, w, h, lo(2), hi(2)
     integer :: t, i, j, i0, i1, j0, j1, c, ncell, ist
     integer, allocatable :: cnt(:), fill(:)
@@ -186,7 +186,7 @@ contains
     type(mesh_t), intent(in) :: mesh
     integer, intent(in) :: tri_expr(:)
     type(expression_t), intent(in) :: exprs(:)
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     type(region_field_t) :: field
     call locator_build(mesh, field%loc, st)
     if (has_failed(st)) return
@@ -199,7 +199,7 @@ contains
   function nodal_field(mesh, values, st) result(field)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: values(:)
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     type(nodal_field_t) :: field
     call locator_build(mesh, field%loc, st)
     if (has_failed(st)) return

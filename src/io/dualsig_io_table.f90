@@ -47,7 +47,7 @@ contains
     character(len=*), intent(in) :: names(:)
     integer :: k
     tab%ncol = size(names)
-    allocate (tab%name(tab%ncol), tab%is_int(tab%ncol), tab%shown(tab%ncol))
+    allocate (tab%name(tab%ncol), tab%is_int(tab%ncol), tab%shown(tab%ncol))  ! small: one entry per column (a few dozen)
     tab%shown = .true.
     do k = 1, tab%ncol
       tab%is_int(k) = names(k)(1:1) == '#'
@@ -57,7 +57,7 @@ contains
         tab%name(k) = names(k)
       end if
     end do
-    allocate (tab%val(tab%ncol, 8), tab%present(tab%ncol, 8))
+    allocate (tab%val(tab%ncol, 8), tab%present(tab%ncol, 8))  ! small: columns x 8 rows
     tab%present = .false.
   end subroutine table_init
 
@@ -67,7 +67,7 @@ contains
     real(dp), allocatable :: v(:,:)
     logical, allocatable :: p(:,:)
     if (tab%nrow == size(tab%val, 2)) then
-      allocate (v(tab%ncol, 2 * tab%nrow), p(tab%ncol, 2 * tab%nrow))
+      allocate (v(tab%ncol, 2 * tab%nrow), p(tab%ncol, 2 * tab%nrow))  ! small: columns x rows (levels or adaptive steps)
       v(:, 1:tab%nrow) = tab%val
       p = .false.
       p(:, 1:tab%nrow) = tab%present
@@ -168,7 +168,7 @@ contains
     logical, intent(in) :: drop_empty
     integer, allocatable :: cols(:)
     integer :: k
-    allocate (cols(0))
+    allocate (cols(0))  ! small: column indices
     do k = 1, tab%ncol
       if (.not. tab%shown(k)) cycle
       if (drop_empty) then
@@ -293,7 +293,7 @@ contains
     integer :: k, r
     character(len=:), allocatable :: line
     if (present(columns)) then
-      allocate (cols(size(columns)))
+      allocate (cols(size(columns)))  ! small: column indices
       do k = 1, size(columns)
         cols(k) = column(tab, trim(columns(k)))
         if (cols(k) == 0) then

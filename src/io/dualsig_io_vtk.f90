@@ -324,7 +324,7 @@ contains
     integer, intent(in) :: nlevel
     character(len=len_trim(output) + 16), allocatable :: paths(:)
     integer :: level
-    allocate (paths(nlevel + 1))
+    allocate (paths(nlevel + 1))  ! small: one path per level
     do level = 1, nlevel
       paths(level) = vtk_level_path(output, level)
     end do

@@ -1211,7 +1211,7 @@ contains
     type(mesh_t), intent(inout) :: mesh
     integer, allocatable, intent(out) :: new_index(:)
     integer, intent(out) :: ndropped
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     logical, allocatable :: used(:)
     integer :: i, k, t, n, ist
     ndropped = 0

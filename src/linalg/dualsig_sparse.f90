@@ -46,7 +46,7 @@ contains
     integer, intent(in) :: n
     integer, intent(in) :: edges(:,:)
     type(csr_t), intent(out) :: a
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer, allocatable :: fill(:)
     integer :: e, i, j, k, p, tmp, ist
     a%n = n
@@ -104,7 +104,7 @@ contains
     integer, intent(in) :: n
     integer, intent(in) :: cliques(:,:)
     type(csr_t), intent(out) :: a
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer, allocatable :: cap(:), start(:), fill(:), cols(:)
     integer :: k, m, c, r, i, p, q, nk, tmp, ist
     nk = size(cliques, 1)
@@ -216,7 +216,7 @@ contains
     integer, intent(in) :: row(:), col(:)
     real(dp), intent(in) :: val(:)
     type(rect_t), intent(out) :: b
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: k, i, p, q, tmp_c, ist
     integer, allocatable :: fill(:)
     real(dp) :: tmp_v

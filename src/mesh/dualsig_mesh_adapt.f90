@@ -260,7 +260,7 @@ contains
     real(dp), intent(in) :: theta
     logical, allocatable, intent(out) :: marked(:)
     integer, intent(out), optional :: nmarked
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer, allocatable :: idx(:)
     real(dp), allocatable :: w(:)
     real(dp) :: total, target, acc

@@ -161,7 +161,7 @@ contains
   function mesh_enclosed_area(mesh, loop_area, st) result(total)
     type(mesh_t), intent(in) :: mesh
     real(dp), allocatable, intent(out), optional :: loop_area(:)
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     real(dp) :: total
     real(dp) :: c(2), a(2), b(2), part
     real(dp), allocatable :: la(:)
@@ -192,7 +192,7 @@ contains
   function mesh_count_pieces(mesh, piece, st) result(npiece)
     type(mesh_t), intent(in) :: mesh
     integer, allocatable, intent(out), optional :: piece(:)
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     integer :: npiece
     integer, allocatable :: pc(:), stack(:)
     integer :: t0, t, k, e, nb, top, ist

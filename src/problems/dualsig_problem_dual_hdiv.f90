@@ -163,7 +163,7 @@ contains
   subroutine dual_hdiv_bound_kinds(mesh, kind, st)
     type(mesh_t), intent(in) :: mesh
     integer, allocatable, intent(out) :: kind(:)
-    type(status_t), intent(inout), optional :: st
+    type(status_t), intent(inout) :: st
     integer :: j, dofs(2), ist
     allocate (kind(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the bound kinds of the RT1 unknowns', 2 * mesh%nedge, BYTES_INT)) return

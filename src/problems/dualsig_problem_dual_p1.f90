@@ -226,7 +226,7 @@ contains
     type(mesh_t), intent(in) :: mesh
     type(rect_t), intent(out) :: b
     integer, allocatable, intent(out) :: row_node(:)
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer, allocatable :: r(:), c(:)
     real(dp), allocatable :: v(:)
     real(dp) :: nu(2)

@@ -161,7 +161,7 @@ contains
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(primal_system_t), intent(inout) :: sys
-    type(status_t), intent(out), optional :: st
+    type(status_t), intent(out) :: st
     integer :: ist
     sys%problem = problem
     call assemble_p1_operator(mesh, merge(1.0_dp, 0.0_dp, problem == PROBLEM_P1), sys%a, st)
