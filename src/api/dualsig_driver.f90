@@ -499,7 +499,7 @@ contains
         if (st%code /= 0) return
       end if
       if (cfg%has_problem) then
-        call user_problem_parts(run, unit)
+        call default_boundary_parts(run, cfg%problem_kind == 'P1', .false., unit)
         call user_problem_build(cfg, phys, pb, st)
         if (st%code /= 0) return
         run%scene%has_exact = allocated(pb%u_exact)
@@ -518,6 +518,7 @@ contains
         end if
       end if
       pb%kind = run%scene%problem
+      call default_boundary_parts(run, pb%kind == PROBLEM_P1, .true., unit)
       ! (allocate with source: gfortran 12 mis-assigns to an allocated polymorphic component)
       allocate (pb%f, source=run%scene%f)                ! small: a scene's function field
       pb%x_breaks = run%scene%x_breaks(1:run%scene%nbreaks)
@@ -529,12 +530,15 @@ contains
     end associate
   end subroutine build_problem
 
-  !> Boundary parts of &problem when &run gives neither markers nor names: P1 has Signorini
-  !> conditions on the whole boundary (every marker of the mesh in Gamma_a); P2 gets u = 0
-  !> on the whole boundary (a Dirichlet problem).  A P2 problem without Gamma_a has no
-  !> contact: a warning says so.
-  subroutine user_problem_parts(run, unit)
+  !> Boundary parts when &run gives neither markers nor names: P1 has Signorini conditions
+  !> on the whole boundary (every marker of the mesh in Gamma_a), for a scene too (its
+  !> default markers are those of the generated meshes); a P2 &problem gets u = 0 on the
+  !> whole boundary, a P2 scene keeps its default parts.  A P2 problem without Gamma_a has
+  !> no contact: a warning says so.
+  subroutine default_boundary_parts(run, is_p1, from_scene, unit)
     type(run_t), intent(inout) :: run
+    logical, intent(in) :: is_p1        !! problem P1
+    logical, intent(in) :: from_scene   !! the problem is a scene (not &problem)
     integer, intent(in) :: unit
     integer, allocatable :: markers(:)
     associate (cfg => run%cfg, pb => run%problem)
@@ -546,19 +550,19 @@ contains
             markers = [markers, minval(pb%mesh%bedge_marker, mask=pb%mesh%bedge_marker > markers(size(markers)))]
           end do
         end if
-        if (cfg%problem_kind == 'P1') then
+        if (is_p1) then
           pb%gamma_u = [integer ::]
           pb%gamma_a = markers
-        else
+        else if (.not. from_scene) then
           pb%gamma_u = markers
           pb%gamma_a = [integer ::]
         end if
       end if
-      if (cfg%problem_kind == 'P2' .and. .not. any(pb%gamma_a > 0)) write (unit, '(a)') 'warning: ' // &
+      if (.not. is_p1 .and. .not. any(pb%gamma_a > 0)) write (unit, '(a)') 'warning: ' // &
         run%where // ': problem P2 without Gamma_a: u = 0 on all of the boundary, a Dirichlet problem without ' // &
         'contact (expected &run gamma_a_markers or gamma_a_names for the Signorini part)'
     end associate
-  end subroutine user_problem_parts
+  end subroutine default_boundary_parts
 
   !> True when the bounding box of the mesh is the unit square (to domain_tol).
   logical function on_unit_square(mesh)
