@@ -35,7 +35,8 @@
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, csr_matvec, csr_pattern_from_edges
-  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_solve, cholesky_free, ORDERING_AMD
+  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
+                                  cholesky_free, ORDERING_AMD
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
@@ -342,7 +343,6 @@ contains
       if (size(h%grid) == h%nlevel - 1) return
     end if
     if (allocated(h%grid)) deallocate (h%grid)
-    call cholesky_free(h%coarse)
     h%coarse_ok = .false.
     allocate (h%grid(h%nlevel - 1), stat=ierr)
     if (ierr /= 0) return
@@ -554,8 +554,9 @@ contains
     if (any(mark)) call factor_coarsest(h)
   end subroutine galerkin_update
 
-  !> The factor of grid 1's operator, rows without unknowns given a unit diagonal; when
-  !> the operator is only semi-definite the V-cycle uses Gauss-Seidel sweeps instead.
+  !> The factor of grid 1's operator, rows without unknowns given a unit diagonal (a
+  !> refactorisation when a factor of its pattern is held); when the operator is only
+  !> semi-definite the V-cycle uses Gauss-Seidel sweeps instead.
   subroutine factor_coarsest(h)
     type(mg_hierarchy_t), intent(inout) :: h
     type(csr_t) :: a1
@@ -565,6 +566,11 @@ contains
     do i = 1, a1%n
       if (a1%val(a1%diag(i)) <= 0.0_dp) a1%val(a1%diag(i)) = 1.0_dp
     end do
+    if (h%coarse%n == a1%n) then            ! the same pattern: no new analysis (checked by refactor)
+      call cholesky_refactor(a1, h%coarse, st)
+      h%coarse_ok = is_ok(st)
+      if (h%coarse_ok) return
+    end if
     call cholesky_factor(a1, h%coarse, st, ORDERING_AMD)
     h%coarse_ok = is_ok(st)
     if (.not. h%coarse_ok) call cholesky_free(h%coarse)
