@@ -95,7 +95,6 @@ module dualsig_solver_multigrid
     integer :: galerkin_updates = 0               !! recomputations of the coarse operators (frozen set changed)
     integer :: grids = 0                          !! grids of the hierarchy used
     real(dp) :: kkt_residual = 0.0_dp             !! relative KKT residual of the returned x
-    real(dp) :: setup_seconds = 0.0_dp            !! (not timed here: 0; the caller times the whole)
     logical :: converged = .false.
   end type mg_result_t
 
@@ -211,13 +210,12 @@ contains
     real(dp), allocatable :: r(:), v(:)
     logical, allocatable :: frozen(:), frozen_prev(:)
     real(dp) :: den
-    integer :: n, ierr, l, nchanged, k
+    integer :: n, ierr, nchanged, k
 
     call check_input(h, a, f, kind, bnd, x, settings, st)
     if (.not. is_ok(st)) return
     n = a%n
-    l = h%nlevel
-    res%grids = l
+    res%grids = h%nlevel
     allocate (r(n), v(n), frozen(n), frozen_prev(n), stat=ierr)
     if (ierr == 0) call setup_grids(h, a, .false., ierr)
     if (ierr /= 0) then
@@ -281,8 +279,9 @@ contains
         itoa(finest_size(h)) // ' nodes')
     else if (size(f) /= a%n .or. size(kind) /= a%n .or. size(bnd) /= a%n .or. size(x) /= a%n) then
       call set_error(st, DS_ERR_INPUT, 'multigrid: F, kind, bnd and x must have the order of the matrix')
-    else if (settings%max_iter < 0 .or. .not. settings%tol >= 0.0_dp) then
-      call set_error(st, DS_ERR_INPUT, 'multigrid: need max_iter >= 0 and tol >= 0')
+    else if (settings%max_iter < 0 .or. .not. settings%tol >= 0.0_dp .or. settings%sweeps < 0 .or. &
+             settings%coarse_sweeps < 0) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: need max_iter >= 0, tol >= 0, sweeps >= 0 and coarse_sweeps >= 0')
     else if (any(a%val(a%diag) <= 0.0_dp)) then
       call set_error(st, DS_ERR_INPUT, 'multigrid: the matrix has a non-positive diagonal entry')
     end if
