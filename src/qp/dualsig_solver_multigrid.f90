@@ -34,7 +34,8 @@
 !> residual falls by about 20 per iteration on the P1 and P2 scenes).
 !> Work per iteration: about eight products with A on the finest grid; storage: the coarse
 !> operators (about a third of A), the prolongations and two vectors and two masks on the
-!> finest grid: about 80 bytes per unknown (mg_memory_bytes).
+!> finest grid: about 80 bytes per unknown (mg_memory_bytes); a cold start holds, while it
+!> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, csr_matvec, csr_pattern_from_edges
