@@ -17,6 +17,9 @@
 !> (cold_schur or cold_aset: a zero start on that level's mesh given as one level, method
 !> 'auto', against the same baseline); `bin/dualsig_bench cold [level]` runs only cold
 !> 'schur' and 'active_set' solves of both scenes at one level (10 by default).
+!> `bin/dualsig_bench multigrid [lmax [lmax_base [scene]]]` runs only the multigrid section
+!> (dualsig_bench_multigrid: TNNMG per level to lmax = 12 by default, baselines to 10,
+!> scene p2_contact); the whole run ends with it.
 !> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv,
 !> out/bench_dual_p2.csv.
 program dualsig_bench
@@ -53,6 +56,7 @@ program dualsig_bench
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
                               analysis_start, analysis_next_level
   use dualsig_status, only: is_ok
+  use dualsig_bench_multigrid, only: bench_multigrid
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -72,6 +76,8 @@ program dualsig_bench
   integer, parameter :: first_level_fit = 7        !! levels used to fit time ~ N^p (smaller ones are noise)
   integer, parameter :: export_levels(2) = [8, 10] !! QPs exported for the PETSc comparison
   integer, parameter :: max_level_p2_uzawa = 3     !! plain Uzawa on (4.8): ~16x more iterations per level
+  integer, parameter :: max_level_mg = 12          !! multigrid: 4097^2 nodes, 1.68e7 unknowns
+  integer, parameter :: max_level_mg_base = 10     !! multigrid: the CHOLMOD baselines to this level
 
   type(scene_t) :: scene
   type(status_t) :: st
@@ -91,6 +97,10 @@ program dualsig_bench
   if (nsections > 0) then
     if (sections(1) == 'cold') then
       call bench_cold()
+      stop
+    end if
+    if (sections(1) == 'multigrid') then
+      call multigrid_section()
       stop
     end if
   end if
@@ -146,8 +156,23 @@ program dualsig_bench
   write (*, '(a)') 'dualsig_bench: table written to out/bench_primal.csv'
   if (run_section('dual_p1')) call bench_dual_p1()
   if (run_section('dual_p2')) call bench_dual_p2()
+  if (nsections == 0) call bench_multigrid(max_level_mg, max_level_mg_base, 'p2_contact')
 
 contains
+
+  !> `multigrid [lmax [lmax_base [scene]]]`: the multigrid section alone.
+  subroutine multigrid_section()
+    integer :: lmax, lbase, ios
+    character(len=32) :: arg, name
+    lmax = max_level_mg
+    lbase = max_level_mg_base
+    name = 'p2_contact'
+    if (nsections >= 2) read (sections(2), *, iostat=ios) lmax
+    if (nsections >= 3) read (sections(3), *, iostat=ios) lbase
+    if (nsections >= 4) name = sections(4)
+    arg = name
+    call bench_multigrid(lmax, lbase, trim(arg))
+  end subroutine multigrid_section
 
   !> Sections to run: the command-line arguments (primal, dual_p1, dual_p2, large, or
   !> large_p1 / large_p2 for one scene of `large`), all without arguments; `cold [level]`

@@ -33,6 +33,8 @@ module dualsig_analysis
   use dualsig_qp_types, only: BOUND_FIXED, BOUND_LOWER
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
+  use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, mg_reset, mg_add_level, mg_clear, &
+                                      multigrid_solve
   use dualsig_solver_boundary_schur, only: boundary_schur_settings_t, boundary_schur_result_t, boundary_schur_qp_solve, &
                                            boundary_schur_max_default
   use dualsig_fields, only: field_t, vector_field_t
@@ -136,7 +138,8 @@ module dualsig_analysis
     !> primal solver: 'auto' (the default: 'schur' when at most max_schur unknowns are
     !> bounded, else 'active_set'), 'schur' (one factorisation with the bounded unknowns
     !> eliminated last, the exact dense QP on their Schur complement), 'active_set'
-    !> (primal-dual active set, bordered changes) or 'psor'
+    !> (primal-dual active set, bordered changes), 'psor' or 'multigrid' (truncated nonsmooth
+    !> Newton multigrid on the hierarchy of uniform refinements; 'auto' on level 1, which has none)
     character(len=16) :: method = 'auto'
     integer :: max_schur = boundary_schur_max_default  !! 'auto': most bounded unknowns for 'schur'
     real(dp) :: omega = 1.0_dp                    !! psor: relaxation
@@ -175,9 +178,9 @@ module dualsig_analysis
     integer :: ndof = 0                     !! unknowns not fixed by Gamma_u
     real(dp) :: h = 0.0_dp                  !! longest side
     ! primal
-    character(len=16) :: primal_method = '' !! the primal solver used: 'schur', 'active_set' or 'psor'
-    integer :: primal_iters = 0             !! sweeps, active-set iterations or dense pivoting steps ('schur')
-    integer :: primal_factorisations = 0    !! active set, schur: CHOLMOD factorisations
+    character(len=16) :: primal_method = '' !! the primal solver used: 'schur', 'active_set', 'psor' or 'multigrid'
+    integer :: primal_iters = 0             !! sweeps, active-set iterations, dense pivoting steps ('schur'), V-cycles
+    integer :: primal_factorisations = 0    !! active set, schur: CHOLMOD factorisations; multigrid: Galerkin updates
     integer :: primal_bordered = 0          !! active set: iterations done by bordering on the kept factor
     real(dp) :: primal_seconds = 0.0_dp     !! wall time of the solve
     real(dp) :: kkt_residual = 0.0_dp
@@ -240,6 +243,7 @@ module dualsig_analysis
     real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
     integer :: last_ndof = 0, prev_ndof = 0 !! unknowns of the last two levels / steps
     type(tri_rule_t) :: load_rule, exact_rule, bound_rule_p1, bound_rule_p2
+    type(mg_hierarchy_t) :: mg              !! method 'multigrid': the grids of the uniform refinements so far
   end type analysis_t
 
 contains
@@ -281,9 +285,9 @@ contains
       call set_error(st, DS_ERR_INPUT, 'analysis: levels = ' // itoa(settings%levels) // ' (expected >= 1)')
       return
     end if
-    if (.not. any(settings%method == [character(len=16) :: 'auto', 'schur', 'active_set', 'psor'])) then
+    if (.not. any(settings%method == [character(len=16) :: 'auto', 'schur', 'active_set', 'psor', 'multigrid'])) then
       call set_error(st, DS_ERR_INPUT, "analysis: primal method '" // trim(settings%method) // &
-        "' (expected 'auto', 'schur', 'active_set' or 'psor')")
+        "' (expected 'auto', 'schur', 'active_set', 'psor' or 'multigrid')")
       return
     end if
     method = trim(settings%dual_method)
@@ -342,6 +346,8 @@ contains
       call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
       call mesh_refine_uniform(an%mesh, finer, st)
       if (.not. is_ok(st)) return
+      if (an%mg%nlevel > 0) call mg_add_level(an%mg, an%mesh%nnode, an%mesh%edge_nodes, st)
+      if (.not. is_ok(st)) return
       if (an%settings%nested) then
         allocate (u_next(finer%nnode), stat=ist)
         if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
@@ -356,6 +362,7 @@ contains
     else if (allocated(an%u_start)) then
       u_next = an%u_start
     end if
+    if (an%level == 0 .and. an%settings%method == 'multigrid') call mg_reset(an%mg, an%mesh%nnode)
     if (.not. allocated(u_next)) then
       allocate (u_next(an%mesh%nnode), stat=ist)
       if (alloc_failed(ist, st, 'the primal solution', an%mesh%nnode, BYTES_REAL)) return
@@ -419,6 +426,7 @@ contains
     call mesh_refine_marked(an%mesh, marked, finer, parents, st)
     if (.not. is_ok(st)) return
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
+    call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
     allocate (u_next(finer%nnode), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
     call mesh_prolongate_bisection(parents, an%u, u_next)
@@ -504,6 +512,7 @@ contains
   subroutine analysis_free(an)
     type(analysis_t), intent(inout) :: an
     call dual_hdiv_nested_free(an%nest)
+    call mg_clear(an%mg)
     an = analysis_t()
   end subroutine analysis_free
 
@@ -635,8 +644,10 @@ contains
     real(dp) :: lmin, lmax
     integer :: steps
     res%primal_seconds = wall_seconds()
-    res%primal_method = primal_method_of(an%settings, sys%kind)
-    if (res%primal_method == 'schur') then
+    res%primal_method = primal_method_of(an%settings, sys%kind, an%mg%nlevel)
+    if (res%primal_method == 'multigrid') then
+      call solve_primal_multigrid(an, sys, res, st_solve)
+    else if (res%primal_method == 'schur') then
       call solve_primal_schur(an, sys, res, st, st_solve)
       if (.not. is_ok(st)) return
     else if (res%primal_method == 'active_set') then
@@ -669,12 +680,15 @@ contains
   end subroutine solve_primal
 
   !> The primal method a level uses: settings%method, 'auto' resolved by the number of
-  !> bounded unknowns ('schur' up to settings%max_schur, 'active_set' above).
-  function primal_method_of(settings, kind) result(method)
+  !> bounded unknowns ('schur' up to settings%max_schur, 'active_set' above); 'multigrid'
+  !> without a hierarchy of at least two grids (level 1, adaptive steps) resolved as 'auto'.
+  function primal_method_of(settings, kind, grids) result(method)
     type(analysis_settings_t), intent(in) :: settings
     integer, intent(in) :: kind(:)
+    integer, intent(in) :: grids
     character(len=16) :: method
     method = settings%method
+    if (method == 'multigrid' .and. grids < 2) method = 'auto'
     if (method == 'auto') method = merge('schur     ', 'active_set', count(kind == BOUND_LOWER) <= settings%max_schur)
   end function primal_method_of
 
@@ -698,6 +712,23 @@ contains
     res%primal_factorisations = bres%factorisations
     res%kkt_residual = bres%kkt_residual
   end subroutine solve_primal_schur
+
+  !> The primal QP by truncated nonsmooth Newton multigrid (dualsig_solver_multigrid) on the
+  !> grids of the uniform refinements so far, from an%u; at most min(max_iter, 200) V-cycles.
+  subroutine solve_primal_multigrid(an, sys, res, st_solve)
+    type(analysis_t), intent(inout) :: an
+    type(primal_system_t), intent(in) :: sys
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st_solve
+    type(mg_settings_t) :: mset
+    type(mg_result_t) :: mres
+    mset%tol = an%settings%tol
+    mset%max_iter = min(an%settings%max_iter, mset%max_iter)
+    call multigrid_solve(an%mg, sys%a, sys%load, sys%kind, sys%bnd, an%u, mset, mres, st_solve)
+    res%primal_iters = mres%iterations
+    res%primal_factorisations = mres%galerkin_updates
+    res%kkt_residual = mres%kkt_residual
+  end subroutine solve_primal_multigrid
 
   !> An error of a solver becomes the level's error; a warning is recorded in res.
   subroutine take_status(st_step, res, st)

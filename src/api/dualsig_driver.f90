@@ -443,7 +443,7 @@ contains
       per_tri = p1_dual_bytes_per_tri
     else if (dual) then
       per_tri = p2_dual_bytes_per_tri
-    else if (method /= 'psor') then
+    else if (method /= 'psor' .and. method /= 'multigrid') then
       per_tri = primal_factor_bytes_per_tri
     else
       per_tri = primal_bytes_per_tri

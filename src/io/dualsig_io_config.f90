@@ -1237,9 +1237,9 @@ contains
     else if (.not. any(cfg%pattern == [character(len=16) :: 'right', 'left', 'union_jack'])) then
       call set_error(st, DS_ERR_INPUT, where // '&mesh pattern = "' // trim(cfg%pattern) // &
         '"; expected right, left or union_jack')
-    else if (.not. any(cfg%method == [character(len=16) :: 'psor', 'active_set', 'schur', 'auto'])) then
+    else if (.not. any(cfg%method == [character(len=16) :: 'psor', 'active_set', 'schur', 'auto', 'multigrid'])) then
       call set_error(st, DS_ERR_INPUT, where // '&solver method = "' // trim(cfg%method) // &
-        '"; expected psor, active_set, schur or auto')
+        '"; expected psor, active_set, schur, auto or multigrid')
     else if (.not. (cfg%omega > 0.0_dp .and. cfg%omega < 2.0_dp)) then
       call set_error(st, DS_ERR_INPUT, where // '&solver omega = ' // rtoa(cfg%omega) // &
         '; expected 0 < omega < 2')

@@ -1,0 +1,903 @@
+!> Truncated nonsmooth Newton multigrid (TNNMG; Graeser & Kornhuber 2009) for the
+!> bound-constrained quadratic programme of the primal problems
+!>
+!>     minimise 1/2 x^T A x - F^T x   subject to   x_i free        (kind(i) = BOUND_FREE)
+!>                                                 x_i >= bnd(i)   (kind(i) = BOUND_LOWER)
+!>                                                 x_i  = bnd(i)   (kind(i) = BOUND_FIXED)
+!>
+!> on a hierarchy of uniformly refined meshes (`mg_hierarchy_t`: grid 1 the coarsest, grid
+!> L = nlevel the finest, whose matrix is A).  Grid l is obtained from grid l-1 (nc nodes) by
+!> red refinement with the numbering of dualsig_mesh_refine: nodes 1..nc are the coarse
+!> nodes, node nc + e is the midpoint of coarse edge e = (ends(1,e), ends(2,e)), so the P1
+!> prolongation copies the coarse values and averages the two ends at a midpoint.
+!>
+!> One iteration, from the iterate x:
+!>  1. a symmetric projected Gauss-Seidel sweep (forward, backward; exact per node for
+!>     bounds; `sweeps` half-sweeps);
+!>  2. the residual r = F - A x and the KKT test (the stopping criterion of every qp solver,
+!>     `kkt_residual`, computed from r without another product);
+!>  3. truncation: the fixed unknowns and the bounded unknowns at their bound are frozen
+!>     (weight 0, the truncated basis of TNNMG);
+!>  4. a linear correction v on the free unknowns: one V(3,3) cycle (Gauss-Seidel,
+!>     exact coarsest solve by CHOLMOD) on the Galerkin operators A_{L-1} = P_T^T A P_T
+!>     (P_T: the prolongation with the rows of frozen unknowns zeroed) and
+!>     A_{l-1} = P^T A_l P below; when the frozen set changes only the rows it reaches are
+!>     recomputed (O(sqrt N) on a contact boundary);
+!>  5. the projected direction w = max(x + v, bnd) - x on the bounded unknowns (v elsewhere)
+!>     and the exact line search min_alpha J(x + alpha w) over the feasible alphas;
+!>  6. a symmetric projected Gauss-Seidel sweep (backward, forward).
+!> A zero start is first replaced by nested iteration on the coarser grids (fmg_start: the
+!> QP restricted to each grid, one iteration per grid, interpolated upwards), so that cold
+!> solves, too, take a number of iterations independent of h.
+!> Every step decreases the energy (monotone), so the iteration converges from any start;
+!> once the contact set is found it is linear multigrid with h-independent rates (the KKT
+!> residual falls by about 20 per iteration on the P1 and P2 scenes).
+!> Work per iteration: about eight products with A on the finest grid; storage: the coarse
+!> operators (about a third of A), the prolongations and two vectors and two masks on the
+!> finest grid: about 80 bytes per unknown (mg_memory_bytes); a cold start holds, while it
+!> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
+module dualsig_solver_multigrid
+  use dualsig_kinds, only: dp, i8
+  use dualsig_sparse, only: csr_t, csr_matvec, csr_pattern_from_edges
+  use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
+                                  cholesky_free, ORDERING_AMD
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual
+  use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC, &
+                            DS_WARN_NOT_CONVERGED
+  use dualsig_strings, only: itoa
+  implicit none
+  private
+
+  public :: mg_hierarchy_t, mg_settings_t, mg_result_t
+  public :: mg_reset, mg_add_level, mg_clear, multigrid_solve, mg_memory_bytes
+
+  !> Default limit of TNNMG iterations (each reduces the residual by about ten).
+  integer, parameter :: mg_max_iter_default = 200
+  !> The coarsest grid is solved exactly by CHOLMOD (its factor is 1/4^(L-1) of the finest
+  !> grid's size); symmetric Gauss-Seidel sweeps replace it when its truncated operator is
+  !> only semi-definite and the factorisation fails.
+  integer, parameter :: coarse_sweeps_fallback = 50
+
+  !> The prolongation from grid l-1 (nc nodes) to grid l (nf = nc + size(ends, 2) nodes) and
+  !> its transpose by coarse node: the fine nodes child(cptr(I) : cptr(I+1)-1) contribute to
+  !> coarse node I (I itself with weight 1, the midpoints of its edges with weight 1/2).
+  type :: mg_transfer_t
+    integer :: nc = 0, nf = 0
+    integer, allocatable :: ends(:,:)     !! (2, nf - nc) coarse ends of the edge of midpoint nc + e
+    integer, allocatable :: cptr(:)       !! (nc + 1)
+    integer, allocatable :: child(:)      !! fine nodes by coarse node
+  end type mg_transfer_t
+
+  !> A coarse grid's operator and vectors (built by the solve).
+  type :: mg_grid_t
+    type(csr_t) :: a
+    real(dp), allocatable :: x(:), b(:), r(:)
+  end type mg_grid_t
+
+  !> The grid hierarchy: transfer(l) maps grid l-1 to grid l (l = 2..nlevel); grids
+  !> 1..nlevel-1 hold the coarse operators of the last solve.
+  type :: mg_hierarchy_t
+    integer :: nlevel = 0                         !! grids; 0 = none
+    integer :: n1 = 0                             !! nodes of grid 1
+    type(mg_transfer_t), allocatable :: transfer(:)
+    type(mg_grid_t), allocatable :: grid(:)
+    type(cholesky_t) :: coarse                    !! factor of grid 1's operator
+    logical :: coarse_ok = .false.                !! the factor is usable
+  end type mg_hierarchy_t
+
+  type :: mg_settings_t
+    real(dp) :: tol = 1.0e-10_dp                  !! tolerance on the relative KKT residual
+    integer :: max_iter = mg_max_iter_default     !! TNNMG iterations
+    !> projected Gauss-Seidel sweeps before and after the correction, alternating forward and
+    !> backward (2: a symmetric sweep each; half the iterations of 1 for the same sweeps)
+    integer :: sweeps = 2
+    !> Gauss-Seidel sweeps before and after, coarse grids (3: P1 needs 8 iterations at 10^6
+    !> unknowns instead of 10 with 2, P2 7 with either)
+    integer :: coarse_sweeps = 3
+    !> a cold start (x = 0 on entry) replaced by nested iteration on the coarser grids
+    !> (fmg_start), with this many iterations per coarser grid; 0: no such start
+    integer :: fmg_cycles = 1
+  end type mg_settings_t
+
+  type :: mg_result_t
+    integer :: iterations = 0                     !! TNNMG iterations (V-cycles)
+    integer :: galerkin_updates = 0               !! recomputations of the coarse operators (frozen set changed)
+    integer :: grids = 0                          !! grids of the hierarchy used
+    real(dp) :: kkt_residual = 0.0_dp             !! relative KKT residual of the returned x
+    logical :: converged = .false.
+  end type mg_result_t
+
+contains
+
+  !> Start a hierarchy whose coarsest grid has n1 nodes (nlevel = 1: no coarse grid yet).
+  subroutine mg_reset(h, n1)
+    type(mg_hierarchy_t), intent(inout) :: h
+    integer, intent(in) :: n1
+    call mg_clear(h)
+    h%nlevel = 1
+    h%n1 = n1
+  end subroutine mg_reset
+
+  !> Forget the hierarchy (nlevel = 0), e.g. after a refinement that is not uniform.
+  subroutine mg_clear(h)
+    type(mg_hierarchy_t), intent(inout) :: h
+    call cholesky_free(h%coarse)
+    h%coarse_ok = .false.
+    if (allocated(h%transfer)) deallocate (h%transfer)
+    if (allocated(h%grid)) deallocate (h%grid)
+    h%nlevel = 0
+    h%n1 = 0
+  end subroutine mg_clear
+
+  !> Append a grid made by red refinement of the current finest one (nc nodes, its edges
+  !> `edge_nodes(2, nedge)`; the new grid has nc + nedge nodes, numbered as in
+  !> dualsig_mesh_refine).  st: DS_ERR_INPUT when nc is not the current finest size.
+  subroutine mg_add_level(h, nc, edge_nodes, st)
+    type(mg_hierarchy_t), intent(inout) :: h
+    integer, intent(in) :: nc
+    integer, intent(in) :: edge_nodes(:,:)
+    type(status_t), intent(out) :: st
+    type(mg_transfer_t), allocatable :: tr(:)
+    integer :: l, ne, e, k, i, ierr
+    integer, allocatable :: fill(:)
+    if (h%nlevel < 1 .or. nc /= finest_size(h)) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: a refinement of a grid of ' // itoa(nc) // ' nodes added to a ' // &
+        'hierarchy whose finest grid has ' // itoa(finest_size(h)) // ' (expected mg_reset first)')
+      return
+    end if
+    allocate (tr(h%nlevel + 1), stat=ierr)
+    if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the hierarchy')
+    if (ierr /= 0) return
+    do l = 2, h%nlevel
+      call move_transfer(h%transfer(l), tr(l))
+    end do
+    call move_alloc(tr, h%transfer)
+    h%nlevel = h%nlevel + 1
+    ne = size(edge_nodes, 2)
+    associate (t => h%transfer(h%nlevel))
+      t%nc = nc
+      t%nf = nc + ne
+      allocate (t%ends(2, ne), t%cptr(nc + 1), t%child(nc + 2 * ne), fill(nc), stat=ierr)
+      if (ierr /= 0) then
+        call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the prolongation of ' // itoa(t%nf) // ' nodes')
+        return
+      end if
+      t%ends = edge_nodes
+      fill = 1
+      do e = 1, ne
+        fill(edge_nodes(:, e)) = fill(edge_nodes(:, e)) + 1
+      end do
+      t%cptr(1) = 1
+      do i = 1, nc
+        t%cptr(i + 1) = t%cptr(i) + fill(i)
+        t%child(t%cptr(i)) = i
+      end do
+      fill = 1
+      do e = 1, ne
+        do k = 1, 2
+          i = edge_nodes(k, e)
+          t%child(t%cptr(i) + fill(i)) = nc + e
+          fill(i) = fill(i) + 1
+        end do
+      end do
+    end associate
+  end subroutine mg_add_level
+
+  !> Nodes of the finest grid of the hierarchy (0 without one).
+  pure integer function finest_size(h) result(n)
+    type(mg_hierarchy_t), intent(in) :: h
+    n = 0
+    if (h%nlevel == 1) n = h%n1
+    if (h%nlevel >= 2) n = h%transfer(h%nlevel)%nf
+  end function finest_size
+
+  !> tb = ta, ta emptied (no copy of the arrays).
+  subroutine move_transfer(ta, tb)
+    type(mg_transfer_t), intent(inout) :: ta
+    type(mg_transfer_t), intent(inout) :: tb
+    tb%nc = ta%nc
+    tb%nf = ta%nf
+    call move_alloc(ta%ends, tb%ends)
+    call move_alloc(ta%cptr, tb%cptr)
+    call move_alloc(ta%child, tb%child)
+  end subroutine move_transfer
+
+  !> TNNMG (module header) from the start x (projected on the constraints first) on the
+  !> finest grid of h, whose matrix is a.  On return x is the last iterate.
+  !> st: DS_ERR_INPUT (no hierarchy of at least two grids, sizes), DS_ERR_NUMERIC (non-finite
+  !> iterate, out of memory), DS_WARN_NOT_CONVERGED at max_iter.
+  recursive subroutine multigrid_solve(h, a, f, kind, bnd, x, settings, res, st)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(inout) :: x(:)
+    type(mg_settings_t), intent(in) :: settings
+    type(mg_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    real(dp), allocatable :: r(:), v(:)
+    logical, allocatable :: frozen(:), frozen_prev(:)
+    real(dp) :: den
+    integer :: n, ierr, nchanged, k
+
+    call check_input(h, a, f, kind, bnd, x, settings, st)
+    if (.not. is_ok(st)) return
+    n = a%n
+    res%grids = h%nlevel
+    allocate (r(n), v(n), frozen(n), frozen_prev(n), stat=ierr)
+    if (ierr == 0) call setup_grids(h, a, .false., ierr)
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(n) // ' unknowns')
+      return
+    end if
+    if (settings%fmg_cycles > 0 .and. h%nlevel >= 3) then
+      if (all(x == 0.0_dp)) call fmg_start(h, a, f, kind, bnd, x, settings, ierr)
+      if (ierr /= 0) then
+        call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the nested start on the coarser grids')
+        return
+      end if
+    end if
+    where (kind == BOUND_FIXED) x = bnd
+    where (kind == BOUND_LOWER) x = max(x, bnd)
+    den = sqrt(sum(f**2, mask=kind /= BOUND_FIXED))
+    frozen_prev = .false.
+    do
+      do k = 1, settings%sweeps
+        call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 1)
+      end do
+      call residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, res%kkt_residual, nchanged)
+      if (den > 0.0_dp) res%kkt_residual = res%kkt_residual / den
+      if (.not. (res%kkt_residual <= huge(1.0_dp))) then
+        call set_error(st, DS_ERR_NUMERIC, 'multigrid: the iterate is no longer finite')
+        exit
+      end if
+      res%converged = res%kkt_residual <= settings%tol
+      if (res%converged .or. res%iterations >= settings%max_iter) exit
+      res%iterations = res%iterations + 1
+      if (res%iterations == 1) then
+        call galerkin_all(h, a, frozen, st)
+      else if (nchanged > 0) then
+        call galerkin_update(h, a, frozen, frozen_prev, st)
+      end if
+      if (.not. is_ok(st)) exit
+      if (res%iterations == 1 .or. nchanged > 0) res%galerkin_updates = res%galerkin_updates + 1
+      frozen_prev = frozen
+      call coarse_correction(h, frozen, r, v, settings%coarse_sweeps)
+      call line_search(a, kind, bnd, r, v, x)
+      do k = 1, settings%sweeps
+        call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 0)
+      end do
+    end do
+    if (.not. is_ok(st)) then
+      res%kkt_residual = huge(1.0_dp)
+      return
+    end if
+    res%kkt_residual = kkt_residual(a, f, kind, bnd, x, r)
+    res%converged = res%kkt_residual <= settings%tol
+    if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'multigrid: not converged after ' // &
+      itoa(res%iterations) // ' iterations (KKT residual above the tolerance)')
+  end subroutine multigrid_solve
+
+  !> A start for a cold solve by nested iteration inside the hierarchy (full multigrid):
+  !> the QP restricted to grid l = 2..L-1 (the Galerkin operator P^T A P, the load P^T F,
+  !> the bounds of the same nodes: grid l's nodes are nodes 1..n_l of every finer grid),
+  !> solved by settings%fmg_cycles iterations on grids 1..l from the interpolated solution
+  !> of grid l-1; x = the interpolation of grid L-1's.  Coarse solves that do not converge
+  !> are expected (a start only); ierr /= 0: out of memory.
+  recursive subroutine fmg_start(h, a, f, kind, bnd, x, settings, ierr)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:), bnd(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(inout) :: x(:)
+    type(mg_settings_t), intent(in) :: settings
+    integer, intent(out) :: ierr
+    type(csr_t), allocatable :: ops(:)
+    type(mg_hierarchy_t) :: hs
+    type(mg_settings_t) :: sub
+    type(mg_result_t) :: rs
+    type(status_t) :: st
+    real(dp), allocatable :: fl(:,:), xl(:), xc(:)
+    logical, allocatable :: none(:)
+    integer :: l, lv, nl, top
+    top = h%nlevel
+    call setup_grids(h, a, .false., ierr)
+    if (ierr == 0) allocate (none(a%n), source=.false., stat=ierr)
+    if (ierr == 0) allocate (ops(top - 1), stat=ierr)
+    if (ierr /= 0) return
+    call galerkin_all(h, a, none, st)          ! untruncated: P^T A P on every grid
+    deallocate (none)
+    if (.not. is_ok(st)) return
+    do l = 2, top - 1
+      ops(l) = h%grid(l)%a
+    end do
+    allocate (fl(h%transfer(top)%nc, top - 1), source=0.0_dp, stat=ierr)
+    if (ierr /= 0) return
+    call restrict(h%transfer(top), f, fl(:, top - 1))
+    do l = top - 1, 3, -1
+      call restrict(h%transfer(l), fl(1:h%transfer(l)%nf, l), fl(1:h%transfer(l)%nc, l - 1))
+    end do
+    sub = settings
+    sub%max_iter = settings%fmg_cycles
+    sub%fmg_cycles = 0
+    allocate (xl(h%transfer(2)%nf), source=0.0_dp, stat=ierr)
+    if (ierr /= 0) return
+    do l = 2, top - 1
+      nl = h%transfer(l)%nf
+      if (l > 2) then
+        call move_alloc(xl, xc)
+        allocate (xl(nl), stat=ierr)
+        if (ierr /= 0) return
+        call prolong_set(h%transfer(l), xc, xl)
+        deallocate (xc)
+      end if
+      hs%nlevel = l
+      hs%n1 = h%n1
+      allocate (hs%transfer(l))  ! small: one transfer descriptor per level
+      do lv = 2, l
+        call move_transfer(h%transfer(lv), hs%transfer(lv))
+      end do
+      call multigrid_solve(hs, ops(l), fl(1:nl, l), kind(1:nl), bnd(1:nl), xl, sub, rs, st)
+      do lv = 2, l
+        call move_transfer(hs%transfer(lv), h%transfer(lv))
+      end do
+      call mg_clear(hs)
+      ops(l) = csr_t()
+      if (.not. is_ok(st)) return                ! (a numeric failure: the cold start stays)
+    end do
+    call prolong_set(h%transfer(top), xl, x)
+  end subroutine fmg_start
+
+  !> The checks of multigrid_solve's arguments.
+  subroutine check_input(h, a, f, kind, bnd, x, settings, st)
+    type(mg_hierarchy_t), intent(in) :: h
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:), bnd(:), x(:)
+    integer, intent(in) :: kind(:)
+    type(mg_settings_t), intent(in) :: settings
+    type(status_t), intent(out) :: st
+    if (h%nlevel < 2) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: no grid hierarchy (expected at least one uniform refinement of ' // &
+        'the coarse mesh, levels >= 2)')
+    else if (a%n /= finest_size(h)) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: the matrix has order ' // itoa(a%n) // ', the finest grid ' // &
+        itoa(finest_size(h)) // ' nodes')
+    else if (size(f) /= a%n .or. size(kind) /= a%n .or. size(bnd) /= a%n .or. size(x) /= a%n) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: F, kind, bnd and x must have the order of the matrix')
+    else if (settings%max_iter < 0 .or. .not. settings%tol >= 0.0_dp .or. settings%sweeps < 0 .or. &
+             settings%coarse_sweeps < 0) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: need max_iter >= 0, tol >= 0, sweeps >= 0 and coarse_sweeps >= 0')
+    else if (any(a%val(a%diag) <= 0.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: the matrix has a non-positive diagonal entry')
+    end if
+  end subroutine check_input
+
+  !> In one pass: r = F - A x, the unscaled KKT residual of dualsig_qp_types (`kkt`, to be
+  !> divided by ||F||), the frozen unknowns (fixed, or bounded and at the bound) and how many
+  !> of them differ from `frozen_prev`.
+  pure subroutine residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, kkt, nchanged)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:), x(:)
+    logical, intent(in) :: frozen_prev(:)
+    real(dp), intent(out) :: r(:)
+    logical, intent(out) :: frozen(:)
+    real(dp), intent(out) :: kkt
+    integer, intent(out) :: nchanged
+    real(dp) :: num, g, s
+    integer :: i, p
+    num = 0.0_dp
+    nchanged = 0
+    do i = 1, a%n
+      s = f(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s - a%val(p) * x(a%col(p))
+      end do
+      r(i) = s
+      select case (kind(i))
+      case (BOUND_FREE)
+        g = -s
+        frozen(i) = .false.
+      case (BOUND_LOWER)
+        g = min(-s, a%val(a%diag(i)) * (x(i) - bnd(i)))
+        frozen(i) = x(i) <= bnd(i)
+      case default
+        g = 0.0_dp
+        frozen(i) = .true.
+      end select
+      num = num + g * g
+      if (frozen(i) .neqv. frozen_prev(i)) nchanged = nchanged + 1
+    end do
+    kkt = sqrt(num)
+  end subroutine residual_kkt
+
+  !> The coarse operators' patterns and the vectors of grids 1..L-1 (once per hierarchy).
+  !> The pattern of P^T A P is the edge graph of the coarse mesh when A has the pattern of
+  !> the P1 elements of the fine mesh (red refinement couples only nodes of one coarse
+  !> triangle); `general` builds it from the product instead, for any A.
+  subroutine setup_grids(h, a, general, ierr)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: general
+    integer, intent(out) :: ierr
+    integer :: l, nc
+    type(status_t) :: st
+    ierr = 0
+    if (allocated(h%grid) .and. .not. general) then
+      if (size(h%grid) == h%nlevel - 1) return
+    end if
+    if (allocated(h%grid)) deallocate (h%grid)
+    h%coarse_ok = .false.
+    allocate (h%grid(h%nlevel - 1), stat=ierr)
+    if (ierr /= 0) return
+    do l = h%nlevel, 2, -1
+      nc = h%transfer(l)%nc
+      if (.not. general) then
+        call csr_pattern_from_edges(nc, coarse_edges(h, l), h%grid(l - 1)%a, st=st)
+        if (.not. is_ok(st)) ierr = 1
+      else if (l == h%nlevel) then
+        call galerkin_pattern(h%transfer(l), a, h%grid(l - 1)%a, ierr)
+      else
+        call galerkin_pattern(h%transfer(l), h%grid(l)%a, h%grid(l - 1)%a, ierr)
+      end if
+      if (ierr /= 0) return
+      allocate (h%grid(l - 1)%x(nc), h%grid(l - 1)%b(nc), h%grid(l - 1)%r(nc), stat=ierr)
+      if (ierr /= 0) return
+    end do
+  end subroutine setup_grids
+
+  !> The edges of grid l-1: the ends of the midpoints of transfer(l).
+  pure function coarse_edges(h, l) result(edges)
+    type(mg_hierarchy_t), intent(in) :: h
+    integer, intent(in) :: l
+    integer :: edges(2, h%transfer(l)%nf - h%transfer(l)%nc)
+    edges = h%transfer(l)%ends
+  end function coarse_edges
+
+  !> The pattern of P^T A P for the prolongation of `t` (values zero, columns sorted).
+  subroutine galerkin_pattern(t, af, ac, ierr)
+    type(mg_transfer_t), intent(in) :: t
+    type(csr_t), intent(in) :: af
+    type(csr_t), intent(out) :: ac
+    integer, intent(out) :: ierr
+    integer, allocatable :: mark(:), list(:)
+    integer :: pass, ci, q, p, j, k, jc, cnt, nnz, lo
+    allocate (mark(t%nc), list(t%nc), ac%rowptr(t%nc + 1), ac%diag(t%nc), stat=ierr)
+    if (ierr /= 0) return
+    ac%n = t%nc
+    do pass = 1, 2
+      mark = 0
+      nnz = 0
+      ac%rowptr(1) = 1
+      do ci = 1, t%nc
+        cnt = 0
+        do q = t%cptr(ci), t%cptr(ci + 1) - 1
+          do p = af%rowptr(t%child(q)), af%rowptr(t%child(q) + 1) - 1
+            j = af%col(p)
+            do k = 1, merge(1, 2, j <= t%nc)
+              jc = parent(t, j, k)
+              if (mark(jc) /= ci) then
+                mark(jc) = ci
+                cnt = cnt + 1
+                list(cnt) = jc
+              end if
+            end do
+          end do
+        end do
+        lo = nnz
+        nnz = nnz + cnt
+        ac%rowptr(ci + 1) = nnz + 1
+        if (pass == 2) then
+          call sort_ints(list(1:cnt))
+          ac%col(lo + 1:nnz) = list(1:cnt)
+          do k = lo + 1, nnz
+            if (ac%col(k) == ci) ac%diag(ci) = k
+          end do
+        end if
+      end do
+      if (pass == 1) then
+        allocate (ac%col(nnz), ac%val(nnz), stat=ierr)
+        if (ierr /= 0) return
+        ac%val = 0.0_dp
+      end if
+    end do
+  end subroutine galerkin_pattern
+
+  !> The k-th coarse parent of fine node j (k = 1 only for a coarse node).
+  pure integer function parent(t, j, k)
+    type(mg_transfer_t), intent(in) :: t
+    integer, intent(in) :: j, k
+    if (j <= t%nc) then
+      parent = j
+    else
+      parent = t%ends(k, j - t%nc)
+    end if
+  end function parent
+
+  !> Sort a short integer list increasingly (insertion sort: coarse rows have ~7 entries).
+  pure subroutine sort_ints(v)
+    integer, intent(inout) :: v(:)
+    integer :: i, j, key
+    do i = 2, size(v)
+      key = v(i)
+      j = i - 1
+      do while (j >= 1)
+        if (v(j) <= key) exit
+        v(j + 1) = v(j)
+        j = j - 1
+      end do
+      v(j + 1) = key
+    end do
+  end subroutine sort_ints
+
+  !> Row ci of ac = P_T^T af P_T on the pattern of galerkin_pattern, P_T the prolongation
+  !> with the rows of the frozen fine unknowns zeroed (frozen absent: none).  pos(nc) is
+  !> scratch.
+  pure subroutine galerkin_row(t, af, frozen, ac, pos, ci, ok)
+    type(mg_transfer_t), intent(in) :: t
+    type(csr_t), intent(in) :: af
+    logical, intent(in), optional :: frozen(:)
+    type(csr_t), intent(inout) :: ac
+    integer, intent(inout) :: pos(:)             !! zero on entry and on return
+    integer, intent(in) :: ci
+    logical, intent(inout) :: ok                !! set .false. when an entry is outside the pattern
+    integer :: q, p, i, j, e, lo, hi, p1, p2, nc
+    real(dp) :: wi, aij
+    logical :: truncated
+    lo = ac%rowptr(ci)
+    hi = ac%rowptr(ci + 1) - 1
+    nc = t%nc
+    truncated = present(frozen)
+    do p = lo, hi
+      pos(ac%col(p)) = p
+    end do
+    ac%val(lo:hi) = 0.0_dp
+    do q = t%cptr(ci), t%cptr(ci + 1) - 1
+      i = t%child(q)
+      wi = 0.5_dp
+      if (i <= nc) wi = 1.0_dp
+      if (truncated) then
+        if (frozen(i)) cycle
+      end if
+      do p = af%rowptr(i), af%rowptr(i + 1) - 1
+        j = af%col(p)
+        if (truncated) then
+          if (frozen(j)) cycle
+        end if
+        aij = wi * af%val(p)
+        if (j <= nc) then
+          p1 = pos(j)
+          if (p1 == 0) ok = .false.
+          if (p1 == 0) exit
+          ac%val(p1) = ac%val(p1) + aij
+        else
+          e = j - nc
+          p1 = pos(t%ends(1, e))
+          p2 = pos(t%ends(2, e))
+          if (p1 == 0 .or. p2 == 0) ok = .false.
+          if (p1 == 0 .or. p2 == 0) exit
+          ac%val(p1) = ac%val(p1) + 0.5_dp * aij
+          ac%val(p2) = ac%val(p2) + 0.5_dp * aij
+        end if
+      end do
+    end do
+    do p = lo, hi
+      pos(ac%col(p)) = 0
+    end do
+  end subroutine galerkin_row
+
+  !> The rows of the coarse operators that change when the frozen set of the finest grid
+  !> changes from frozen_prev to frozen: on grid L-1 the parents of the changed unknowns and
+  !> of their neighbours, on each coarser grid the parents of the rows changed above (the
+  !> changed entries stay within these rows and columns); then the factor of grid 1.
+  subroutine galerkin_update(h, a, frozen, frozen_prev, st)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: frozen(:), frozen_prev(:)
+    type(status_t), intent(out) :: st
+    logical, allocatable :: mark(:), markc(:)
+    integer, allocatable :: pos(:)
+    integer :: l, i, ci, ierr
+    logical :: ok
+    ok = .true.
+    allocate (mark(a%n), stat=ierr)
+    if (ierr == 0) allocate (pos(h%transfer(h%nlevel)%nc), source=0, stat=ierr)
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse operators')
+      return
+    end if
+    mark = .false.
+    do i = 1, a%n
+      if (frozen(i) .neqv. frozen_prev(i)) mark(a%col(a%rowptr(i):a%rowptr(i + 1) - 1)) = .true.
+    end do
+    do l = h%nlevel, 2, -1
+      associate (t => h%transfer(l))
+        allocate (markc(t%nc), stat=ierr)
+        if (ierr /= 0) then
+          call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse operators')
+          return
+        end if
+        markc = mark(1:t%nc)
+        do i = t%nc + 1, t%nf
+          if (mark(i)) markc(t%ends(:, i - t%nc)) = .true.
+        end do
+        do ci = 1, t%nc
+          if (.not. markc(ci)) cycle
+          if (l == h%nlevel) then
+            call galerkin_row(t, a, frozen, h%grid(l - 1)%a, pos, ci, ok)
+          else
+            call galerkin_row(t, h%grid(l)%a, ac=h%grid(l - 1)%a, pos=pos, ci=ci, ok=ok)
+          end if
+        end do
+      end associate
+      call move_alloc(markc, mark)
+    end do
+    if (.not. ok) then      ! the pattern was right at galerkin_all: cannot happen
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: a coarse operator left its pattern')
+      return
+    end if
+    if (any(mark)) call factor_coarsest(h)
+  end subroutine galerkin_update
+
+  !> The factor of grid 1's operator, rows without unknowns given a unit diagonal (a
+  !> refactorisation when a factor of its pattern is held); when the operator is only
+  !> semi-definite the V-cycle uses Gauss-Seidel sweeps instead.
+  subroutine factor_coarsest(h)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t) :: a1
+    type(status_t) :: st
+    integer :: i
+    a1 = h%grid(1)%a
+    do i = 1, a1%n
+      if (a1%val(a1%diag(i)) <= 0.0_dp) a1%val(a1%diag(i)) = 1.0_dp
+    end do
+    if (h%coarse%n == a1%n) then            ! the same pattern: no new analysis (checked by refactor)
+      call cholesky_refactor(a1, h%coarse, st)
+      h%coarse_ok = is_ok(st)
+      if (h%coarse_ok) return
+    end if
+    call cholesky_factor(a1, h%coarse, st, ORDERING_AMD)
+    h%coarse_ok = is_ok(st)
+    if (.not. h%coarse_ok) call cholesky_free(h%coarse)
+  end subroutine factor_coarsest
+
+  !> All coarse operators for the frozen unknowns of the finest grid, and the factor of
+  !> grid 1.  When an operator leaves the edge pattern of setup_grids (A is not a P1
+  !> matrix of the finest mesh) the patterns are rebuilt from the products.
+  subroutine galerkin_all(h, a, frozen, st)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: frozen(:)
+    type(status_t), intent(out) :: st
+    integer, allocatable :: pos(:)
+    integer :: l, ci, ierr, attempt
+    logical :: ok
+    allocate (pos(h%transfer(h%nlevel)%nc), source=0, stat=ierr)
+    do attempt = 1, 2
+      if (ierr /= 0) exit
+      ok = .true.
+      do ci = 1, h%transfer(h%nlevel)%nc
+        call galerkin_row(h%transfer(h%nlevel), a, frozen, h%grid(h%nlevel - 1)%a, pos, ci, ok)
+      end do
+      do l = h%nlevel - 1, 2, -1
+        do ci = 1, h%transfer(l)%nc
+          call galerkin_row(h%transfer(l), h%grid(l)%a, ac=h%grid(l - 1)%a, pos=pos, ci=ci, ok=ok)
+        end do
+      end do
+      if (ok) exit
+      call setup_grids(h, a, .true., ierr)
+    end do
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse operators')
+      return
+    end if
+    call factor_coarsest(h)
+  end subroutine galerkin_all
+
+  !> v = P_T (one V-cycle on grids L-1..1 for the restricted residual P_T^T r), zero at the
+  !> frozen unknowns.
+  subroutine coarse_correction(h, frozen, r, v, nu)
+    type(mg_hierarchy_t), intent(inout) :: h
+    integer, intent(in) :: nu
+    logical, intent(in) :: frozen(:)
+    real(dp), intent(in) :: r(:)
+    real(dp), intent(out) :: v(:)
+    integer :: l
+    l = h%nlevel
+    v = merge(0.0_dp, r, frozen)
+    call restrict(h%transfer(l), v, h%grid(l - 1)%b)
+    call vcycle(h, l - 1, nu)
+    call prolong_set(h%transfer(l), h%grid(l - 1)%x, v)
+    where (frozen) v = 0.0_dp
+  end subroutine coarse_correction
+
+  !> x = (approximately) A_l^{-1} b on grid l from zero: V(1,1), symmetric Gauss-Seidel,
+  !> exact on grid 1.
+  recursive subroutine vcycle(h, l, nu)
+    type(mg_hierarchy_t), intent(inout) :: h
+    integer, intent(in) :: l, nu
+    type(status_t) :: st
+    integer :: k
+    associate (g => h%grid(l))
+      g%x = 0.0_dp
+      if (l == 1) then
+        if (h%coarse_ok) then
+          call cholesky_solve(h%coarse, g%b, g%x, st)
+          where (g%a%val(g%a%diag) <= 0.0_dp) g%x = 0.0_dp
+          if (is_ok(st)) return
+          g%x = 0.0_dp
+        end if
+        do k = 1, coarse_sweeps_fallback
+          call gs_linear(g%a, g%b, g%x, .true.)
+          call gs_linear(g%a, g%b, g%x, .false.)
+        end do
+        return
+      end if
+      do k = 1, nu
+        call gs_linear(g%a, g%b, g%x, mod(k, 2) == 1)
+      end do
+      call csr_matvec(g%a, g%x, g%r)
+      g%r = g%b - g%r
+      call restrict(h%transfer(l), g%r, h%grid(l - 1)%b)
+      call vcycle(h, l - 1, nu)
+      call prolong_add(h%transfer(l), h%grid(l - 1)%x, g%x)
+      do k = 1, nu
+        call gs_linear(g%a, g%b, g%x, mod(k, 2) == 0)
+      end do
+    end associate
+  end subroutine vcycle
+
+  !> One Gauss-Seidel sweep for A x = b (forward or backward), rows with a zero diagonal
+  !> (no unknown left after truncation) skipped.
+  pure subroutine gs_linear(a, b, x, forward)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: b(:)
+    real(dp), intent(inout) :: x(:)
+    logical, intent(in) :: forward
+    integer :: i, p, i0, i1, di
+    real(dp) :: s, d
+    if (forward) then
+      i0 = 1
+      i1 = a%n
+      di = 1
+    else
+      i0 = a%n
+      i1 = 1
+      di = -1
+    end if
+    do i = i0, i1, di
+      d = a%val(a%diag(i))
+      if (d <= 0.0_dp) cycle
+      s = b(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s - a%val(p) * x(a%col(p))
+      end do
+      x(i) = x(i) + s / d
+    end do
+  end subroutine gs_linear
+
+  !> bc = P^T rf.
+  pure subroutine restrict(t, rf, bc)
+    type(mg_transfer_t), intent(in) :: t
+    real(dp), intent(in) :: rf(:)
+    real(dp), intent(out) :: bc(:)
+    integer :: e
+    bc = rf(1:t%nc)
+    do e = 1, t%nf - t%nc
+      bc(t%ends(1, e)) = bc(t%ends(1, e)) + 0.5_dp * rf(t%nc + e)
+      bc(t%ends(2, e)) = bc(t%ends(2, e)) + 0.5_dp * rf(t%nc + e)
+    end do
+  end subroutine restrict
+
+  !> xf = P xc.
+  pure subroutine prolong_set(t, xc, xf)
+    type(mg_transfer_t), intent(in) :: t
+    real(dp), intent(in) :: xc(:)
+    real(dp), intent(out) :: xf(:)
+    integer :: e
+    xf(1:t%nc) = xc
+    do e = 1, t%nf - t%nc
+      xf(t%nc + e) = 0.5_dp * (xc(t%ends(1, e)) + xc(t%ends(2, e)))
+    end do
+  end subroutine prolong_set
+
+  !> xf = xf + P xc.
+  pure subroutine prolong_add(t, xc, xf)
+    type(mg_transfer_t), intent(in) :: t
+    real(dp), intent(in) :: xc(:)
+    real(dp), intent(inout) :: xf(:)
+    integer :: e
+    xf(1:t%nc) = xf(1:t%nc) + xc
+    do e = 1, t%nf - t%nc
+      xf(t%nc + e) = xf(t%nc + e) + 0.5_dp * (xc(t%ends(1, e)) + xc(t%ends(2, e)))
+    end do
+  end subroutine prolong_add
+
+  !> x = x + alpha w with the projected direction w = max(x + v, bnd) - x on the bounded
+  !> unknowns (v elsewhere; v is zero at the frozen ones) and alpha minimising the energy
+  !> J(x + alpha w) = J(x) - alpha r.w + alpha^2/2 w.Aw over the feasible alphas [0, alpha_max]
+  !> (alpha_max >= 1).  On return v holds w.
+  subroutine line_search(a, kind, bnd, r, v, x)
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:), r(:)
+    real(dp), intent(inout) :: v(:)
+    real(dp), intent(inout) :: x(:)
+    real(dp) :: alpha, alpha_max, waw, rw, s
+    integer :: i, p
+    rw = 0.0_dp
+    alpha_max = huge(1.0_dp)
+    do i = 1, a%n
+      if (kind(i) == BOUND_LOWER) then
+        v(i) = max(x(i) + v(i), bnd(i)) - x(i)
+        if (v(i) < 0.0_dp) alpha_max = min(alpha_max, (x(i) - bnd(i)) / (-v(i)))
+      end if
+      rw = rw + r(i) * v(i)
+    end do
+    waw = 0.0_dp
+    do i = 1, a%n                     ! w.Aw without storing Aw
+      s = 0.0_dp
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s + a%val(p) * v(a%col(p))
+      end do
+      waw = waw + v(i) * s
+    end do
+    if (.not. (waw > 0.0_dp) .or. .not. (rw > 0.0_dp)) return
+    alpha = min(rw / waw, alpha_max)
+    do i = 1, a%n
+      x(i) = x(i) + alpha * v(i)
+      if (kind(i) == BOUND_LOWER) x(i) = max(x(i), bnd(i))
+    end do
+  end subroutine line_search
+
+  !> One projected Gauss-Seidel sweep, in increasing (forward) or decreasing order:
+  !> x_i <- max(x_i + (F_i - (A x)_i) / A_ii, bnd_i) for the bounded unknowns, without the
+  !> max for the free ones; fixed unknowns are not touched.
+  pure subroutine sweep_projected(a, f, kind, bnd, x, forward)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(inout) :: x(:)
+    logical, intent(in) :: forward
+    integer :: i, p, i0, i1, di
+    real(dp) :: r, y
+    i0 = merge(1, a%n, forward)
+    i1 = merge(a%n, 1, forward)
+    di = merge(1, -1, forward)
+    do i = i0, i1, di
+      if (kind(i) == BOUND_FIXED) cycle
+      r = f(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        r = r - a%val(p) * x(a%col(p))
+      end do
+      y = x(i) + r / a%val(a%diag(i))
+      if (kind(i) == BOUND_LOWER) y = max(y, bnd(i))
+      x(i) = y
+    end do
+  end subroutine sweep_projected
+
+  !> Bytes held by the hierarchy h (prolongations, coarse operators and vectors) plus the
+  !> work arrays of a solve with n unknowns (two real vectors, two logical masks).
+  pure integer(i8) function mg_memory_bytes(h, n) result(bytes)
+    type(mg_hierarchy_t), intent(in) :: h
+    integer, intent(in) :: n
+    integer :: l
+    bytes = int(n, i8) * (2 * 8 + 2 * 4)
+    do l = 2, h%nlevel
+      associate (t => h%transfer(l))
+        if (allocated(t%ends)) bytes = bytes + 4_i8 * (size(t%ends, kind=i8) + size(t%cptr, kind=i8) + &
+                                                       size(t%child, kind=i8))
+      end associate
+    end do
+    if (.not. allocated(h%grid)) return
+    do l = 1, size(h%grid)
+      associate (g => h%grid(l))
+        if (allocated(g%a%val)) bytes = bytes + 12_i8 * size(g%a%val, kind=i8) + 8_i8 * (g%a%n + 1)
+        if (allocated(g%x)) bytes = bytes + 24_i8 * size(g%x, kind=i8)
+      end associate
+    end do
+  end function mg_memory_bytes
+end module dualsig_solver_multigrid
