@@ -69,8 +69,12 @@ module dualsig_problem_dual_hdiv
   real(dp), parameter :: free_start = 1.0_dp
   !> 'nested': stop when a CG step decreases est by less than this fraction of est.
   real(dp), parameter :: nested_rel_decrease = 1.0e-3_dp
-  !> 'nested': CG steps at most (per round) and rounds of holding negative bounded unknowns.
-  integer, parameter :: nested_max_iter = 500, nested_max_rounds = 4
+  !> 'nested': CG steps at most (first round, later rounds) and rounds of holding negative
+  !> bounded unknowns.
+  integer, parameter :: nested_max_iter = 500, nested_repair_steps = 1, nested_max_rounds = 4
+  !> 'nested': setting the negative bounded unknowns to 0 ends the iteration when it
+  !> increases est by at most this fraction.
+  real(dp), parameter :: nested_clip_rel = 1.0e-2_dp
 
 contains
 
@@ -236,39 +240,42 @@ contains
     logical, allocatable :: free(:)
     integer, allocatable :: ptr(:), idx(:)
     real(dp), allocatable :: xs0(:)
-    real(dp) :: j_floor
-    integer :: round, nheld
+    real(dp) :: j_floor, j_start, j_end
+    integer :: round
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
     free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
     if (present(u_primal)) call complementarity_prediction(mesh, u_primal, xs, free)
     xs0 = xs
     j_floor = nested_floor(mesh, f, rule, sys, u_primal)
-    ! vertex patches of the unbounded unknowns; the free bounded ones by point blocks
-    call vertex_patches(mesh, kind /= BOUND_LOWER, ptr, idx)
+    ! vertex patches of all side unknowns (the held ones are taken out by mg_hold)
+    call vertex_patches(mesh, kind == kind, ptr, idx)
     nest%rec_k = sys%rec_k
     call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, kind == BOUND_LOWER, st)
     if (.not. is_ok(st)) return
     nest%ready = .false.
+    j_start = huge(1.0_dp)
     do round = 1, nested_max_rounds
       call mg_hold(nest%mg, free, st)
       if (.not. is_ok(st)) return
       call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
-                         min(settings%max_iter, nested_max_iter), xs, pres)
+                         min(settings%max_iter, merge(nested_max_iter, nested_repair_steps, round == 1)), xs, pres)
+      if (round == 1) j_start = pres%j_start
       res%iterations = res%iterations + pres%iterations
       res%converged = pres%converged
       res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
-      ! free bounded unknowns that went negative: held at 0 from now on
-      nheld = count(free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
-      if (nheld == 0) exit
+      j_end = pres%j_value
+      ! free bounded unknowns that went negative: set to 0; done when that costs little,
+      ! else held at 0 from now on and the iteration goes on
+      if (.not. any(free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)) exit
       where (free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
         xs = 0.0_dp
         free = .false.
       end where
+      j_end = quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs)
+      if (j_end - pres%j_value <= nested_clip_rel * (pres%j_value - j_floor)) exit
     end do
     ! never worse than the start (both feasible)
-    where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
-    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs) > quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs0)) &
-      xs = xs0
+    if (j_end > j_start) xs = xs0
   end subroutine solve_nested
 
   !> 1/2 x^T a x - b^T x.
