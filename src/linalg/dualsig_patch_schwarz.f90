@@ -1,22 +1,22 @@
-!> Additive Schwarz preconditioner with small dense blocks ("patches") and the
-!> preconditioned conjugate gradient method on a subset of the unknowns.
+!> Schwarz smoothing with small dense blocks ("patches"), the symmetric multigrid V-cycle
+!> built on it, and the preconditioned conjugate gradient method on a subset of the unknowns.
 !>
-!> A patch is a list of unknowns; the preconditioner is
-!>     M^{-1} r = sum_P R_P^T (R_P A R_P^T)^{-1} R_P r,
-!> each patch block factorised once by a dense Cholesky factorisation (packed lower
-!> triangle).  With the vertex patches of Arnold, Falk and Winther (all unknowns of the
-!> edges at a vertex) it is the smoother of their H(div) multigrid, robust on the
-!> discretely divergence-free components where point (Jacobi) blocks are not.
+!> A patch is a list of unknowns; a multiplicative sweep updates z_P = z_P + A_PP^{-1}
+!> (r - A z)_P patch after patch, each block factorised once by a dense Cholesky
+!> factorisation (packed lower triangle).  With the vertex patches of Arnold, Falk and
+!> Winther (all unknowns of the edges at a vertex) it is the smoother of their H(div)
+!> multigrid, robust on the discretely divergence-free components where point (Jacobi)
+!> blocks are not.
 !>
 !> A hierarchy of nested spaces (mg_hierarchy_t: level matrices A_l, prolongations P_l from
 !> level l-1 to l, the patches of every level, A_1 factorised by CHOLMOD) gives the
-!> symmetric V-cycle used as preconditioner: damped patch Schwarz before and after the
-!> coarse correction P_l (V-cycle of level l-1) P_l^T.  Every level has a set of `held`
-!> unknowns (zero in its correction space: the rows and columns of A_l restricted away;
-!> its patches must not contain the `bounded` ones, which are smoothed by point blocks
-!> when not held); mg_hold sets them from the finest level's free unknowns.  A coarse space must hold
-!> what the finer one holds after prolongation (e.g. a zero normal trace on a boundary),
-!> or the truncated coarse corrections do not match the coarse matrices.
+!> symmetric V-cycle used as preconditioner: a forward sweep, the coarse correction P_l
+!> (V-cycle of level l-1) P_l^T, a backward sweep.  Every level has a set of `held`
+!> unknowns (zero in its correction space); mg_hold sets them from the finest level's free
+!> unknowns and takes them out of the patches (the patches with `bounded` unknowns are
+!> factorised again).  A coarse space must hold what the finer one holds after prolongation
+!> (e.g. a zero normal trace on a boundary), or the truncated coarse corrections do not
+!> match the coarse matrices.
 !>
 !> pcg_quadratic minimises J(x) = 1/2 x^T A x - b^T x (A the finest level's matrix) over
 !> the unknowns marked free (the others keep their values; the preconditioner is truncated
@@ -33,7 +33,7 @@ module dualsig_patch_schwarz
   private
 
   public :: patch_schwarz_t, patch_schwarz_setup, pcg_quadratic, pcg_result_t
-  public :: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, mg_max_levels
+  public :: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, mg_max_levels, mg_relax_bounded
 
   !> Most levels of a hierarchy.
   integer, parameter :: mg_max_levels = 24
@@ -212,26 +212,49 @@ contains
     end associate
   end subroutine vcycle
 
-  !> One multiplicative Schwarz sweep for a z = r over the patches of ps, forward (patch 1
-  !> first) or backward: z_P = z_P + A_PP^{-1} (r - a z)_P, patch after patch.
-  pure subroutine patch_sweep(a, ps, r, z, forward)
+  !> Symmetric multiplicative sweeps (forward, backward) of the finest level's patches with
+  !> bounded unknowns (after mg_hold) for a x = b: each patch step minimises
+  !> J(x) = 1/2 x^T a x - b^T x over the patch's free unknowns, so J does not increase.
+  subroutine mg_relax_bounded(h, b, x, sweeps)
+    type(mg_hierarchy_t), intent(in) :: h
+    real(dp), intent(in) :: b(:)
+    real(dp), intent(inout) :: x(:)
+    integer, intent(in) :: sweeps
+    integer :: k
+    associate (lv => h%lev(h%nlevel))
+      do k = 1, sweeps
+        call patch_sweep(lv%a, lv%ps, b, x, .true., lv%ps%touch)
+        call patch_sweep(lv%a, lv%ps, b, x, .false., lv%ps%touch)
+      end do
+    end associate
+  end subroutine mg_relax_bounded
+
+  !> One multiplicative Schwarz sweep for a z = r over the patches of ps (or of list),
+  !> forward (the first patch first) or backward: z_P = z_P + A_PP^{-1} (r - a z)_P,
+  !> patch after patch.
+  pure subroutine patch_sweep(a, ps, r, z, forward, list)
     type(csr_t), intent(in) :: a
     type(patch_schwarz_t), intent(in) :: ps
     real(dp), intent(in) :: r(:)
     real(dp), intent(inout) :: z(:)
     logical, intent(in) :: forward
+    integer, intent(in), optional :: list(:)   !! only these patches (in this order when forward)
     real(dp) :: y(ps%max_size), s
-    integer :: p, m, j, i, q, off, base, first, last, step
+    integer :: ip, p, m, j, i, q, off, base, first, last, step, np
+    np = ps%npatch
+    if (present(list)) np = size(list)
     if (forward) then
       first = 1
-      last = ps%npatch
+      last = np
       step = 1
     else
-      first = ps%npatch
+      first = np
       last = 1
       step = -1
     end if
-    do p = first, last, step
+    do ip = first, last, step
+      p = ip
+      if (present(list)) p = list(ip)
       m = ps%nact(p)
       if (m == 0) cycle
       base = ps%ptr(p) - 1

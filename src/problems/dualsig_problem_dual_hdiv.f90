@@ -26,11 +26,12 @@
 !>   started from the previous level's field prolongated exactly (hdiv_prolongate).  The
 !>   bounded unknowns are held at 0 where the complementarity prediction says so (and where
 !>   the start is 0 without u_primal), the others improved by CG preconditioned by a
-!>   V-cycle over all levels (dualsig_patch_schwarz: Arnold-Falk-Winther vertex-patch
-!>   smoother, the first level factorised), stopped when a step gains less than
-!>   nested_rel_decrease of the current est (computable: est = 2 (J - j_floor), see
-!>   nested_floor); free bounded unknowns that went negative are then held at 0 and the
-!>   iteration continues (at most nested_max_rounds times).  Any feasible field gives
+!>   V-cycle over all levels (dualsig_patch_schwarz: Arnold-Falk-Winther vertex patches,
+!>   symmetric multiplicative sweeps, the first level factorised), stopped when a step
+!>   gains less than nested_rel_decrease of the current est (computable: est =
+!>   2 (J - j_floor), see nested_floor); free bounded unknowns that went negative are then
+!>   set to 0 and held and the boundary patches relaxed once (J does not increase; at most
+!>   nested_max_rounds times).  Any feasible field gives
 !>   guaranteed bounds, so only their sharpness depends on how far the iteration went.
 module dualsig_problem_dual_hdiv
   use dualsig_kinds, only: dp
@@ -48,7 +49,7 @@ module dualsig_problem_dual_hdiv
                                         hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
-  use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t
+  use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
   use dualsig_sparse, only: csr_matvec
   implicit none
   private
@@ -69,12 +70,9 @@ module dualsig_problem_dual_hdiv
   real(dp), parameter :: free_start = 1.0_dp
   !> 'nested': stop when a CG step decreases est by less than this fraction of est.
   real(dp), parameter :: nested_rel_decrease = 1.0e-3_dp
-  !> 'nested': CG steps at most (first round, later rounds) and rounds of holding negative
-  !> bounded unknowns.
-  integer, parameter :: nested_max_iter = 500, nested_repair_steps = 1, nested_max_rounds = 4
-  !> 'nested': setting the negative bounded unknowns to 0 ends the iteration when it
-  !> increases est by at most this fraction.
-  real(dp), parameter :: nested_clip_rel = 1.0e-2_dp
+  !> 'nested': CG steps at most, and rounds of holding negative bounded unknowns (each with
+  !> a relaxation of the boundary patches).
+  integer, parameter :: nested_max_iter = 500, nested_max_rounds = 4
 
 contains
 
@@ -240,7 +238,7 @@ contains
     logical, allocatable :: free(:)
     integer, allocatable :: ptr(:), idx(:)
     real(dp), allocatable :: xs0(:)
-    real(dp) :: j_floor, j_start, j_end
+    real(dp) :: j_floor
     integer :: round
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
     free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
@@ -253,29 +251,28 @@ contains
     call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, kind == BOUND_LOWER, st)
     if (.not. is_ok(st)) return
     nest%ready = .false.
-    j_start = huge(1.0_dp)
+    call mg_hold(nest%mg, free, st)
+    if (.not. is_ok(st)) return
+    call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
+                       min(settings%max_iter, nested_max_iter), xs, pres)
+    res%iterations = pres%iterations
+    res%converged = pres%converged
+    res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
+    ! free bounded unknowns that went negative: held at 0, the patches at the boundary
+    ! relaxed (J does not increase: a local repair of the setting to 0)
     do round = 1, nested_max_rounds
-      call mg_hold(nest%mg, free, st)
-      if (.not. is_ok(st)) return
-      call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
-                         min(settings%max_iter, merge(nested_max_iter, nested_repair_steps, round == 1)), xs, pres)
-      if (round == 1) j_start = pres%j_start
-      res%iterations = res%iterations + pres%iterations
-      res%converged = pres%converged
-      res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
-      j_end = pres%j_value
-      ! free bounded unknowns that went negative: set to 0; done when that costs little,
-      ! else held at 0 from now on and the iteration goes on
       if (.not. any(free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)) exit
       where (free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
         xs = 0.0_dp
         free = .false.
       end where
-      j_end = quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs)
-      if (j_end - pres%j_value <= nested_clip_rel * (pres%j_value - j_floor)) exit
+      call mg_hold(nest%mg, free, st)
+      if (.not. is_ok(st)) return
+      call mg_relax_bounded(nest%mg, sys%b, xs, 1)
     end do
-    ! never worse than the start (both feasible)
-    if (j_end > j_start) xs = xs0
+    ! feasible; never worse than the start (feasible too)
+    where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
+    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs) > pres%j_start) xs = xs0
   end subroutine solve_nested
 
   !> 1/2 x^T a x - b^T x.
