@@ -1,22 +1,22 @@
-!> Additive Schwarz preconditioner with small dense blocks ("patches") and the
-!> preconditioned conjugate gradient method on a subset of the unknowns.
+!> Schwarz smoothing with small dense blocks ("patches"), the symmetric multigrid V-cycle
+!> built on it, and the preconditioned conjugate gradient method on a subset of the unknowns.
 !>
-!> A patch is a list of unknowns; the preconditioner is
-!>     M^{-1} r = sum_P R_P^T (R_P A R_P^T)^{-1} R_P r,
-!> each patch block factorised once by a dense Cholesky factorisation (packed lower
-!> triangle).  With the vertex patches of Arnold, Falk and Winther (all unknowns of the
-!> edges at a vertex) it is the smoother of their H(div) multigrid, robust on the
-!> discretely divergence-free components where point (Jacobi) blocks are not.
+!> A patch is a list of unknowns; a multiplicative sweep updates z_P = z_P + A_PP^{-1}
+!> (r - A z)_P patch after patch, each block factorised once by a dense Cholesky
+!> factorisation (packed lower triangle).  With the vertex patches of Arnold, Falk and
+!> Winther (all unknowns of the edges at a vertex) it is the smoother of their H(div)
+!> multigrid, robust on the discretely divergence-free components where point (Jacobi)
+!> blocks are not.
 !>
 !> A hierarchy of nested spaces (mg_hierarchy_t: level matrices A_l, prolongations P_l from
 !> level l-1 to l, the patches of every level, A_1 factorised by CHOLMOD) gives the
-!> symmetric V-cycle used as preconditioner: damped patch Schwarz before and after the
-!> coarse correction P_l (V-cycle of level l-1) P_l^T.  Every level has a set of `held`
-!> unknowns (zero in its correction space: the rows and columns of A_l restricted away;
-!> its patches must not contain the `bounded` ones, which are smoothed by point blocks
-!> when not held); mg_hold sets them from the finest level's free unknowns.  A coarse space must hold
-!> what the finer one holds after prolongation (e.g. a zero normal trace on a boundary),
-!> or the truncated coarse corrections do not match the coarse matrices.
+!> symmetric V-cycle used as preconditioner: a forward sweep, the coarse correction P_l
+!> (V-cycle of level l-1) P_l^T, a backward sweep.  Every level has a set of `held`
+!> unknowns (zero in its correction space); mg_hold sets them from the finest level's free
+!> unknowns and takes them out of the patches (the patches with `bounded` unknowns are
+!> factorised again).  A coarse space must hold what the finer one holds after prolongation
+!> (e.g. a zero normal trace on a boundary), or the truncated coarse corrections do not
+!> match the coarse matrices.
 !>
 !> pcg_quadratic minimises J(x) = 1/2 x^T A x - b^T x (A the finest level's matrix) over
 !> the unknowns marked free (the others keep their values; the preconditioner is truncated
@@ -28,25 +28,26 @@ module dualsig_patch_schwarz
   use dualsig_sparse, only: csr_t, csr_matvec, rect_t, rect_matvec, rect_matvec_t
   use dualsig_spd_solver, only: cholmod_spd_t
   use dualsig_status, only: status_t, set_error, DS_ERR_NUMERIC, DS_ERR_MEMORY
-  use dualsig_strings, only: itoa
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
+  use dualsig_strings, only: itoa
   implicit none
   private
 
-  public :: patch_schwarz_t, patch_schwarz_setup, patch_schwarz_apply, pcg_quadratic, pcg_result_t
-  public :: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, mg_max_levels
+  public :: patch_schwarz_t, patch_schwarz_setup, pcg_quadratic, pcg_result_t
+  public :: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, mg_max_levels, mg_relax_bounded
 
   !> Most levels of a hierarchy.
   integer, parameter :: mg_max_levels = 24
-  !> Damping of the additive patch smoother (each unknown lies in two vertex patches).
-  real(dp), parameter :: smoother_damping = 0.3_dp
 
-  !> The patches and the Cholesky factors of their blocks.
+  !> The patches and the Cholesky factors of their blocks.  The unknowns of patch p in use
+  !> (not held) come first: idx(ptr(p):ptr(p)+nact(p)-1), the block of these factorised.
   type :: patch_schwarz_t
     integer :: npatch = 0
     integer :: max_size = 0              !! largest patch
     integer, allocatable :: ptr(:)       !! (npatch+1) patch p is idx(ptr(p):ptr(p+1)-1)
     integer, allocatable :: idx(:)       !! unknowns of the patches
+    integer, allocatable :: nact(:)      !! (npatch) unknowns of patch p in use
+    integer, allocatable :: touch(:)     !! the patches with a bounded unknown (factorised again by mg_hold)
     integer(i8), allocatable :: foff(:) !! (npatch+1) factor of p is fac(foff(p):foff(p+1)-1)
     real(dp), allocatable :: fac(:)      !! packed lower Cholesky factors, column by column
   end type patch_schwarz_t
@@ -56,8 +57,9 @@ module dualsig_patch_schwarz
     type(csr_t) :: a                     !! the level's matrix
     type(rect_t) :: p                    !! prolongation from level l-1 (levels >= 2)
     type(patch_schwarz_t) :: ps          !! the smoother's patches (levels >= 2)
-    logical, allocatable :: bounded(:)   !! unknowns that may be held (not in the patches)
+    logical, allocatable :: bounded(:)   !! unknowns that may be held
     logical, allocatable :: held(:)      !! unknowns held at zero (mg_hold)
+    real(dp), allocatable :: r(:), z(:), w(:)  !! work vectors of the V-cycle (right side, correction, residual)
   end type mg_level_t
 
   !> Nested levels, coarsest first.
@@ -74,13 +76,15 @@ module dualsig_patch_schwarz
     logical :: converged = .false.       !! the stopping criterion was met
     real(dp) :: last_decrease = 0.0_dp   !! J decrease of the last step
     real(dp) :: j_value = 0.0_dp         !! J at the returned x
+    real(dp) :: j_start = 0.0_dp         !! J at the start
   end type pcg_result_t
 
 contains
 
   !> Append a finer level: its matrix a and (from the second level on) the prolongation p
-  !> from the previous level (moved into the hierarchy), its patches ptr/idx factorised;
-  !> the first level's matrix is factorised by CHOLMOD.
+  !> from the previous level (both moved into the hierarchy), its patches ptr/idx
+  !> factorised without the bounded unknowns (mg_hold puts the free ones back); the first
+  !> level's matrix is factorised by mg_hold.
   subroutine mg_add_level(h, a, p, ptr, idx, bounded, st)
     type(mg_hierarchy_t), intent(inout) :: h
     type(csr_t), intent(inout) :: a
@@ -88,7 +92,7 @@ contains
     integer, intent(in) :: ptr(:), idx(:)
     logical, intent(in) :: bounded(:)
     type(status_t), intent(out) :: st
-    integer :: l
+    integer :: l, ierr
     if (h%nlevel == mg_max_levels) then
       call set_error(st, DS_ERR_NUMERIC, 'multigrid: more than ' // itoa(mg_max_levels) // ' levels')
       return
@@ -96,28 +100,49 @@ contains
     l = h%nlevel + 1
     st%code = 0
     if (l > 1) then
-      call patch_schwarz_setup(a, ptr, idx, h%lev(l)%ps, st)
+      call patch_schwarz_setup(a, ptr, idx, bounded, h%lev(l)%ps, st)
       if (st%code /= 0) return
-      h%lev(l)%p = p
-      p = rect_t()
+      call move_csr(p, h%lev(l)%p)
     end if
-    h%lev(l)%a = a
+    allocate (h%lev(l)%r(a%n), h%lev(l)%z(a%n), h%lev(l)%w(a%n), stat=ierr)
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_MEMORY, 'multigrid: out of memory (' // itoa(a%n) // ' unknowns)')
+      return
+    end if
+    h%lev(l)%a%n = a%n
+    call move_alloc(a%rowptr, h%lev(l)%a%rowptr)
+    call move_alloc(a%col, h%lev(l)%a%col)
+    call move_alloc(a%diag, h%lev(l)%a%diag)
+    call move_alloc(a%val, h%lev(l)%a%val)
+    a = csr_t()
     h%lev(l)%bounded = bounded
     h%lev(l)%held = bounded
-    a = csr_t()
     h%nlevel = l
   end subroutine mg_add_level
 
+  !> q = p, p emptied (without copying the arrays).
+  subroutine move_csr(p, q)
+    type(rect_t), intent(inout) :: p, q
+    q%m = p%m
+    q%n = p%n
+    call move_alloc(p%rowptr, q%rowptr)
+    call move_alloc(p%col, q%col)
+    call move_alloc(p%val, q%val)
+    p = rect_t()
+  end subroutine move_csr
+
   !> Hold the unknowns of the finest level that are not free, and on every coarser level
   !> the bounded unknowns whose prolongation reaches a held finer one (so that coarse
-  !> corrections never touch a held unknown); the coarsest matrix is factorised again with
-  !> the rows and columns of its held unknowns those of the identity.
+  !> corrections never touch a held unknown); the patches with bounded unknowns are
+  !> factorised again without the held ones, and the coarsest matrix with the rows and
+  !> columns of its held unknowns those of the identity.
   subroutine mg_hold(h, free, st)
     type(mg_hierarchy_t), intent(inout) :: h
     logical, intent(in) :: free(:)
     type(status_t), intent(out) :: st
     type(csr_t) :: a_held
     integer :: l, i, q
+    st%code = 0
     h%lev(h%nlevel)%held = .not. free
     do l = h%nlevel, 2, -1
       associate (lc => h%lev(l - 1), pl => h%lev(l)%p)
@@ -129,6 +154,8 @@ contains
           end do
         end do
       end associate
+      call patch_schwarz_refactor(h%lev(l)%a, h%lev(l)%held, h%lev(l)%ps, st)
+      if (st%code /= 0) return
     end do
     associate (a => h%lev(1)%a, held => h%lev(1)%held)
       a_held = a
@@ -152,78 +179,132 @@ contains
     h%lev = mg_level_t()
   end subroutine mg_free
 
-  !> z = B r, B the symmetric V-cycle of level l (truncated to `free` at level top).
-  !> Out of memory: DS_ERR_MEMORY in st.
-  recursive subroutine vcycle(h, l, top, r, z, st)
-    type(mg_hierarchy_t), intent(in) :: h
-    integer, intent(in) :: l, top
-    real(dp), intent(in) :: r(:)
-    real(dp), intent(out) :: z(:)
-    type(status_t), intent(inout) :: st
-    real(dp), allocatable :: res(:), rc(:), zc(:), dz(:), rm(:)
-    logical, allocatable :: act(:)
-    type(status_t) :: st_coarse
-    integer :: ist
+  !> lev(l)%z = B lev(l)%r, B the symmetric V-cycle of level l: a forward multiplicative
+  !> sweep over the patches, the coarse correction P_l (V-cycle of level l-1) P_l^T of the
+  !> residual, a backward sweep (the adjoint of the first: B is symmetric).  r is zero on
+  !> the held unknowns, and so is z.
+  recursive subroutine vcycle(h, l)
+    type(mg_hierarchy_t), intent(inout) :: h
+    integer, intent(in) :: l
+    type(status_t) :: st
+    integer :: i
     if (l == 1) then
-      res = merge(r, 0.0_dp, .not. h%lev(1)%held)
-      call h%coarse%solve(res, z, st_coarse)
+      associate (lv => h%lev(1))
+        call h%coarse%solve(lv%r, lv%z, st)
+        where (lv%held) lv%z = 0.0_dp
+      end associate
       return
     end if
-    act = .not. h%lev(l)%held
-    rm = merge(r, 0.0_dp, act)
-    associate (lv => h%lev(l))
-      allocate (res(lv%a%n), dz(lv%a%n), rc(lv%p%n), zc(lv%p%n), stat=ist)
-      if (alloc_failed(ist, st, 'a level of the V-cycle', 2 * (lv%a%n + lv%p%n), BYTES_REAL)) return
-      call smooth(lv, rm, z)
-      z = smoother_damping * z
-      where (.not. act) z = 0.0_dp
-      call csr_matvec(lv%a, z, res)
-      res = rm - res
-      where (.not. act) res = 0.0_dp
-      call rect_matvec_t(lv%p, res, rc)
-      call vcycle(h, l - 1, top, rc, zc, st)
-      if (st%code /= 0) return
-      call rect_matvec(lv%p, zc, dz)
-      where (.not. act) dz = 0.0_dp
-      z = z + dz
-      call csr_matvec(lv%a, z, res)
-      res = rm - res
-      where (.not. act) res = 0.0_dp
-      call smooth(lv, res, dz)
-      z = z + smoother_damping * dz
-      where (.not. act) z = 0.0_dp
+    associate (lv => h%lev(l), lc => h%lev(l - 1))
+      lv%z = 0.0_dp
+      call patch_sweep(lv%a, lv%ps, lv%r, lv%z, .true.)
+      call csr_matvec(lv%a, lv%z, lv%w)
+      do i = 1, lv%a%n
+        lv%w(i) = merge(0.0_dp, lv%r(i) - lv%w(i), lv%held(i))
+      end do
+      call rect_matvec_t(lv%p, lv%w, lc%r)
+      where (lc%held) lc%r = 0.0_dp
+      call vcycle(h, l - 1)
+      call rect_matvec(lv%p, lc%z, lv%w)
+      do i = 1, lv%a%n
+        if (.not. lv%held(i)) lv%z(i) = lv%z(i) + lv%w(i)
+      end do
+      call patch_sweep(lv%a, lv%ps, lv%r, lv%z, .false.)
     end associate
   end subroutine vcycle
 
-  !> z = M^{-1} r: the patches of level lv, and point (Jacobi) blocks for its bounded
-  !> unknowns that are not held.
-  pure subroutine smooth(lv, r, z)
-    type(mg_level_t), intent(in) :: lv
-    real(dp), intent(in) :: r(:)
-    real(dp), intent(out) :: z(:)
-    integer :: i
-    call patch_schwarz_apply(lv%ps, r, z)
-    do i = 1, size(z)
-      if (lv%bounded(i) .and. .not. lv%held(i)) z(i) = z(i) + r(i) / lv%a%val(lv%a%diag(i))
-    end do
-  end subroutine smooth
+  !> Symmetric multiplicative sweeps (forward, backward) of the finest level's patches with
+  !> bounded unknowns (after mg_hold) for a x = b: each patch step minimises
+  !> J(x) = 1/2 x^T a x - b^T x over the patch's free unknowns, so J does not increase.
+  subroutine mg_relax_bounded(h, b, x, sweeps)
+    type(mg_hierarchy_t), intent(in) :: h
+    real(dp), intent(in) :: b(:)
+    real(dp), intent(inout) :: x(:)
+    integer, intent(in) :: sweeps
+    integer :: k
+    associate (lv => h%lev(h%nlevel))
+      do k = 1, sweeps
+        call patch_sweep(lv%a, lv%ps, b, x, .true., lv%ps%touch)
+        call patch_sweep(lv%a, lv%ps, b, x, .false., lv%ps%touch)
+      end do
+    end associate
+  end subroutine mg_relax_bounded
 
-  !> Factorise the blocks of the patches ptr/idx of the SPD matrix a (columns sorted).
+  !> One multiplicative Schwarz sweep for a z = r over the patches of ps (or of list),
+  !> forward (the first patch first) or backward: z_P = z_P + A_PP^{-1} (r - a z)_P,
+  !> patch after patch.
+  pure subroutine patch_sweep(a, ps, r, z, forward, list)
+    type(csr_t), intent(in) :: a
+    type(patch_schwarz_t), intent(in) :: ps
+    real(dp), intent(in) :: r(:)
+    real(dp), intent(inout) :: z(:)
+    logical, intent(in) :: forward
+    integer, intent(in), optional :: list(:)   !! only these patches (in this order when forward)
+    real(dp) :: y(ps%max_size), s
+    integer :: ip, p, m, j, i, q, off, base, first, last, step, np
+    np = ps%npatch
+    if (present(list)) np = size(list)
+    if (forward) then
+      first = 1
+      last = np
+      step = 1
+    else
+      first = np
+      last = 1
+      step = -1
+    end if
+    do ip = first, last, step
+      p = ip
+      if (present(list)) p = list(ip)
+      m = ps%nact(p)
+      if (m == 0) cycle
+      base = ps%ptr(p) - 1
+      do j = 1, m
+        i = ps%idx(base + j)
+        s = r(i)
+        do q = a%rowptr(i), a%rowptr(i + 1) - 1
+          s = s - a%val(q) * z(a%col(q))
+        end do
+        y(j) = s
+      end do
+      ! forward L y = r, then backward L^T y = y (packed columns)
+      off = int(ps%foff(p)) - 1
+      do j = 1, m
+        y(j) = y(j) / ps%fac(off + 1)
+        do i = j + 1, m
+          y(i) = y(i) - ps%fac(off + i - j + 1) * y(j)
+        end do
+        off = off + m - j + 1
+      end do
+      do j = m, 1, -1
+        off = off - (m - j + 1)
+        do i = j + 1, m
+          y(j) = y(j) - ps%fac(off + i - j + 1) * y(i)
+        end do
+        y(j) = y(j) / ps%fac(off + 1)
+      end do
+      do j = 1, m
+        i = ps%idx(base + j)
+        z(i) = z(i) + y(j)
+      end do
+    end do
+  end subroutine patch_sweep
+
+  !> Factorise the blocks of the patches ptr/idx of the SPD matrix a (columns sorted),
+  !> without the `bounded` unknowns (patch_schwarz_refactor puts the free ones back).
   !> Empty patches are allowed.  DS_ERR_NUMERIC when a block is not positive definite.
-  subroutine patch_schwarz_setup(a, ptr, idx, ps, st)
+  subroutine patch_schwarz_setup(a, ptr, idx, bounded, ps, st)
     type(csr_t), intent(in) :: a
     integer, intent(in) :: ptr(:), idx(:)
+    logical, intent(in) :: bounded(:)
     type(patch_schwarz_t), intent(out) :: ps
     type(status_t), intent(out) :: st
-    integer, allocatable :: pos(:)
-    real(dp), allocatable :: blk(:,:)
-    integer :: p, m, i, k, q, ierr
-    integer(i8) :: off
+    integer :: p, m, ierr
+    st%code = 0
     ps%npatch = size(ptr) - 1
     ps%ptr = ptr
     ps%idx = idx
-    allocate (ps%foff(ps%npatch + 1), stat=ierr)
-    if (ierr == 0) allocate (pos(a%n), source=0, stat=ierr)
+    allocate (ps%foff(ps%npatch + 1), ps%nact(ps%npatch), stat=ierr)
     if (ierr /= 0) then
       call set_error(st, DS_ERR_MEMORY, 'patch Schwarz: out of memory (' // itoa(a%n) // ' unknowns)')
       return
@@ -234,40 +315,70 @@ contains
       ps%max_size = max(ps%max_size, m)
       ps%foff(p + 1) = ps%foff(p) + int(m, i8) * (m + 1) / 2
     end do
+    ps%touch = pack([(p, p = 1, ps%npatch)], [(any(bounded(idx(ptr(p):ptr(p + 1) - 1))), p = 1, ps%npatch)])
     allocate (ps%fac(ps%foff(ps%npatch + 1) - 1), stat=ierr)
     if (ierr /= 0) then
       call set_error(st, DS_ERR_MEMORY, 'patch Schwarz: out of memory for the patch factors')
       return
     end if
-    do p = 1, ps%npatch
-      m = ptr(p + 1) - ptr(p)
+    call factor_patches(a, bounded, [(p, p = 1, ps%npatch)], ps, st)
+  end subroutine patch_schwarz_setup
+
+  !> Factorise again the patches with bounded unknowns, without the held ones.
+  subroutine patch_schwarz_refactor(a, held, ps, st)
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: held(:)
+    type(patch_schwarz_t), intent(inout) :: ps
+    type(status_t), intent(out) :: st
+    call factor_patches(a, held, ps%touch, ps, st)
+  end subroutine patch_schwarz_refactor
+
+  !> For each patch of `list`: its unknowns not held first (nact of them), their block of a
+  !> factorised.
+  subroutine factor_patches(a, held, list, ps, st)
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: held(:)
+    integer, intent(in) :: list(:)
+    type(patch_schwarz_t), intent(inout) :: ps
+    type(status_t), intent(out) :: st
+    integer, allocatable :: pos(:)
+    real(dp) :: blk(ps%max_size, ps%max_size)
+    integer :: ip, p, m, i, k, q, ierr, b, e
+    st%code = 0
+    allocate (pos(a%n), source=0, stat=ierr)
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_MEMORY, 'patch Schwarz: out of memory (' // itoa(a%n) // ' unknowns)')
+      return
+    end if
+    do ip = 1, size(list)
+      p = list(ip)
+      b = ps%ptr(p)
+      e = ps%ptr(p + 1) - 1
+      ps%idx(b:e) = [pack(ps%idx(b:e), .not. held(ps%idx(b:e))), pack(ps%idx(b:e), held(ps%idx(b:e)))]
+      m = count(.not. held(ps%idx(b:e)))
+      ps%nact(p) = m
       if (m == 0) cycle
-      if (allocated(blk)) then
-        if (size(blk, 1) < m) deallocate (blk)
-      end if
-      if (.not. allocated(blk)) allocate (blk(m, m))   ! small: one vertex patch
       do k = 1, m
-        pos(idx(ptr(p) + k - 1)) = k
+        pos(ps%idx(b + k - 1)) = k
       end do
       blk(1:m, 1:m) = 0.0_dp
       do k = 1, m
-        i = idx(ptr(p) + k - 1)
+        i = ps%idx(b + k - 1)
         do q = a%rowptr(i), a%rowptr(i + 1) - 1
           if (pos(a%col(q)) > 0) blk(k, pos(a%col(q))) = a%val(q)
         end do
       end do
       do k = 1, m
-        pos(idx(ptr(p) + k - 1)) = 0
+        pos(ps%idx(b + k - 1)) = 0
       end do
-      off = ps%foff(p)
-      call dense_cholesky_packed(blk(1:m, 1:m), ps%fac(off:ps%foff(p + 1) - 1), ierr)
+      call dense_cholesky_packed(blk(1:m, 1:m), ps%fac(ps%foff(p):ps%foff(p) + int(m, i8) * (m + 1) / 2 - 1), ierr)
       if (ierr /= 0) then
         call set_error(st, DS_ERR_NUMERIC, 'patch Schwarz: the block of patch ' // itoa(p) // &
           ' is not positive definite')
         return
       end if
     end do
-  end subroutine patch_schwarz_setup
+  end subroutine factor_patches
 
   !> Cholesky factor L (packed lower, column by column) of the SPD block blk; ierr /= 0
   !> when a pivot is not positive.
@@ -298,69 +409,34 @@ contains
     end do
   end subroutine dense_cholesky_packed
 
-  !> z = M^{-1} r (sum over the patches of the local solves).
-  pure subroutine patch_schwarz_apply(ps, r, z)
-    type(patch_schwarz_t), intent(in) :: ps
-    real(dp), intent(in) :: r(:)
-    real(dp), intent(out) :: z(:)
-    real(dp) :: y(ps%max_size)
-    integer :: p, m, j, i, off, base
-    z = 0.0_dp
-    do p = 1, ps%npatch
-      base = ps%ptr(p) - 1
-      m = ps%ptr(p + 1) - ps%ptr(p)
-      if (m == 0) cycle
-      y(1:m) = r(ps%idx(base + 1:base + m))
-      ! forward L y = r, then backward L^T y = y (packed columns)
-      off = int(ps%foff(p)) - 1
-      do j = 1, m
-        y(j) = y(j) / ps%fac(off + 1)
-        do i = j + 1, m
-          y(i) = y(i) - ps%fac(off + i - j + 1) * y(j)
-        end do
-        off = off + m - j + 1
-      end do
-      do j = m, 1, -1
-        off = off - (m - j + 1)
-        do i = j + 1, m
-          y(j) = y(j) - ps%fac(off + i - j + 1) * y(i)
-        end do
-        y(j) = y(j) / ps%fac(off + 1)
-      end do
-      do j = 1, m
-        i = ps%idx(base + j)
-        z(i) = z(i) + y(j)
-      end do
-    end do
-  end subroutine patch_schwarz_apply
-
   !> Preconditioned CG (the V-cycle of h) for min J(x) = 1/2 x^T A x - b^T x, A the finest
   !> matrix of h, over the unknowns with free(i); the others keep their values in x.  Stops
   !> when the decrease of J in a step is at most rel (J(x) - j_floor), or after max_iter
   !> steps (converged false).  h has at least two levels.  Out of memory: DS_ERR_MEMORY in st.
   subroutine pcg_quadratic(h, b, free, j_floor, rel, max_iter, x, res, st)
-    type(mg_hierarchy_t), intent(in) :: h
+    type(mg_hierarchy_t), intent(inout) :: h
     real(dp), intent(in) :: b(:)
     logical, intent(in) :: free(:)
     real(dp), intent(in) :: j_floor, rel
     integer, intent(in) :: max_iter
     real(dp), intent(inout) :: x(:)
     type(pcg_result_t), intent(out) :: res
-    type(status_t), intent(out) :: st
-    real(dp), allocatable :: r(:), z(:), p(:), ap(:)
+    type(status_t), intent(inout) :: st
+    real(dp), allocatable :: r(:), p(:), ap(:)
     real(dp) :: rz, rz_new, alpha, beta, pap, jx
-    integer :: k, ist
-    associate (a => h%lev(h%nlevel)%a)
-    allocate (r(a%n), z(a%n), p(a%n), ap(a%n), stat=ist)
-    if (alloc_failed(ist, st, 'the conjugate gradient vectors', 4 * a%n, BYTES_REAL)) return
+    integer :: k, nf, ist
+    nf = h%nlevel
+    associate (a => h%lev(nf)%a)
+    allocate (r(a%n), p(a%n), ap(a%n), stat=ist)
+    if (alloc_failed(ist, st, 'the conjugate gradient vectors', 3 * a%n, BYTES_REAL)) return
     call csr_matvec(a, x, ap)
     jx = 0.5_dp * dot_product(x, ap) - dot_product(b, x)
-    r = b - ap
-    where (.not. free) r = 0.0_dp
-    call vcycle(h, h%nlevel, h%nlevel, r, z, st)
-    if (st%code /= 0) return
-    p = z
-    rz = dot_product(r, z)
+    res%j_start = jx
+    r = merge(b - ap, 0.0_dp, free)
+    h%lev(nf)%r = r
+    call vcycle(h, nf)
+    p = h%lev(nf)%z
+    rz = dot_product(r, p)
     do k = 1, max_iter
       if (.not. rz > 0.0_dp) then
         res%converged = .true.
@@ -380,12 +456,13 @@ contains
         res%converged = .true.
         exit
       end if
-      call vcycle(h, h%nlevel, h%nlevel, r, z, st)
-      if (st%code /= 0) return
-      rz_new = dot_product(r, z)
+      if (k == max_iter) exit
+      h%lev(nf)%r = r
+      call vcycle(h, nf)
+      rz_new = dot_product(r, h%lev(nf)%z)
       beta = rz_new / rz
       rz = rz_new
-      p = z + beta * p
+      p = h%lev(nf)%z + beta * p
     end do
     res%j_value = jx
     end associate

@@ -26,11 +26,12 @@
 !>   started from the previous level's field prolongated exactly (hdiv_prolongate).  The
 !>   bounded unknowns are held at 0 where the complementarity prediction says so (and where
 !>   the start is 0 without u_primal), the others improved by CG preconditioned by a
-!>   V-cycle over all levels (dualsig_patch_schwarz: Arnold-Falk-Winther vertex-patch
-!>   smoother, the first level factorised), stopped when a step gains less than
-!>   nested_rel_decrease of the current est (computable: est = 2 (J - j_floor), see
-!>   nested_floor); free bounded unknowns that went negative are then held at 0 and the
-!>   iteration continues (at most nested_max_rounds times).  Any feasible field gives
+!>   V-cycle over all levels (dualsig_patch_schwarz: Arnold-Falk-Winther vertex patches,
+!>   symmetric multiplicative sweeps, the first level factorised), stopped when a step
+!>   gains less than nested_rel_decrease of the current est (computable: est =
+!>   2 (J - j_floor), see nested_floor); free bounded unknowns that went negative are then
+!>   set to 0 and held and the boundary patches relaxed once (J does not increase; at most
+!>   nested_max_rounds times).  Any feasible field gives
 !>   guaranteed bounds, so only their sharpness depends on how far the iteration went.
 module dualsig_problem_dual_hdiv
   use dualsig_kinds, only: dp
@@ -48,8 +49,9 @@ module dualsig_problem_dual_hdiv
                                         hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
+  use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
-  use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t
+  use dualsig_sparse, only: csr_matvec
   implicit none
   private
 
@@ -69,7 +71,8 @@ module dualsig_problem_dual_hdiv
   real(dp), parameter :: free_start = 1.0_dp
   !> 'nested': stop when a CG step decreases est by less than this fraction of est.
   real(dp), parameter :: nested_rel_decrease = 1.0e-3_dp
-  !> 'nested': CG steps at most (per round) and rounds of holding negative bounded unknowns.
+  !> 'nested': CG steps at most, and rounds of holding negative bounded unknowns (each with
+  !> a relaxation of the boundary patches).
   integer, parameter :: nested_max_iter = 500, nested_max_rounds = 4
 
 contains
@@ -250,44 +253,42 @@ contains
     integer, allocatable :: ptr(:), idx(:)
     real(dp), allocatable :: xs0(:)
     real(dp) :: j_floor
-    integer :: round, nheld
-    type(status_t) :: st_alloc
+    integer :: round
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
     free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
     if (present(u_primal)) call complementarity_prediction(mesh, u_primal, xs, free)
     xs0 = xs
     j_floor = nested_floor(mesh, f, rule, sys, u_primal)
-    ! vertex patches of the unbounded unknowns; the free bounded ones by point blocks
-    call vertex_patches(mesh, kind /= BOUND_LOWER, ptr, idx, st_alloc)
-    if (.not. is_ok(st_alloc)) then
-      st = st_alloc
-      return
-    end if
+    ! vertex patches of all side unknowns (the held ones are taken out by mg_hold)
+    call vertex_patches(mesh, kind == kind, ptr, idx, st=st)
+    if (.not. is_ok(st)) return
     nest%rec_k = sys%rec_k
     call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, kind == BOUND_LOWER, st)
     if (.not. is_ok(st)) return
     nest%ready = .false.
+    call mg_hold(nest%mg, free, st)
+    if (.not. is_ok(st)) return
+    call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
+                       min(settings%max_iter, nested_max_iter), xs, pres, st)
+    if (.not. is_ok(st)) return
+    res%iterations = pres%iterations
+    res%converged = pres%converged
+    res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
+    ! free bounded unknowns that went negative: held at 0, the patches at the boundary
+    ! relaxed (J does not increase: a local repair of the setting to 0)
     do round = 1, nested_max_rounds
-      call mg_hold(nest%mg, free, st)
-      if (.not. is_ok(st)) return
-      call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
-                         min(settings%max_iter, nested_max_iter), xs, pres, st)
-      if (.not. is_ok(st)) return
-      res%iterations = res%iterations + pres%iterations
-      res%converged = pres%converged
-      res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
-      ! free bounded unknowns that went negative: held at 0 from now on
-      nheld = count(free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
-      if (nheld == 0) exit
+      if (.not. any(free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)) exit
       where (free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
         xs = 0.0_dp
         free = .false.
       end where
+      call mg_hold(nest%mg, free, st)
+      if (.not. is_ok(st)) return
+      call mg_relax_bounded(nest%mg, sys%b, xs, 1)
     end do
-    ! never worse than the start (both feasible)
+    ! feasible; never worse than the start (feasible too)
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
-    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs) > quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs0)) &
-      xs = xs0
+    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs) > pres%j_start) xs = xs0
   end subroutine solve_nested
 
   !> 1/2 x^T a x - b^T x.
