@@ -72,6 +72,9 @@ module dualsig_analysis
   integer, parameter :: bound_degree_p2 = 12
   !> Lanczos settings of the automatic SOR parameter.
   integer, parameter :: lanczos_max_steps = 400
+  !> 'auto' runs multigrid above this many unknowns when a hierarchy exists (below it the
+  !> factorisation of the warm-started active set costs about as much as the V-cycles)
+  integer, parameter :: mg_auto_min_unknowns = 10000
   real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
   !> The dual spaces of P1: 'hdiv' (Raviart-Thomas of order 1, div q piecewise linear; the
   !> default) and 'paper' (continuous piecewise-linear vector fields, Section 3).
@@ -150,7 +153,8 @@ module dualsig_analysis
     integer :: ordering = ORDERING_AMD            !! every CHOLMOD factorisation (ORDERING_* of dualsig_sparse_direct)
     logical :: dual = .true.                      !! dual analysis
     logical :: bounds = .true.                    !! with dual: the bounds from the dual field (off: the field only)
-    !> P1: active_set | uzawa | nested (hdiv, from level 2 on); P2: augmented | uzawa; default: the first
+    !> P1: active_set | uzawa | nested (hdiv, from level 2 on); P2: augmented | uzawa; default: P1 nested
+    !> (hdiv) or active_set (paper), P2 augmented
     character(len=16) :: dual_method = 'default'
     real(dp) :: dual_rho = 0.0_dp                 !! Uzawa step, 0 = automatic
     real(dp) :: dual_tol = 1.0e-10_dp             !! Uzawa tolerance, floor
@@ -292,6 +296,10 @@ contains
     end if
     method = trim(settings%dual_method)
     if (method == 'default') method = trim(merge('active_set', 'augmented ', problem%kind == PROBLEM_P1))
+    ! P1 in RT1: 'nested' (the exact active set on the first level and wherever the previous
+    ! level is not a uniform coarsening; from level 2 on the same bound at a fraction of the cost)
+    if (settings%dual_method == 'default' .and. problem%kind == PROBLEM_P1 .and. settings%dual_space == 'hdiv') &
+      method = 'nested'
     if (settings%dual) then
       if ((problem%kind == PROBLEM_P1 .and. method == 'augmented') .or. &
           (problem%kind /= PROBLEM_P1 .and. (method == 'active_set' .or. method == 'nested')) .or. &
@@ -362,7 +370,8 @@ contains
     else if (allocated(an%u_start)) then
       u_next = an%u_start
     end if
-    if (an%level == 0 .and. an%settings%method == 'multigrid') call mg_reset(an%mg, an%mesh%nnode)
+    if (an%level == 0 .and. any(an%settings%method == [character(len=16) :: 'multigrid', 'auto'])) &
+      call mg_reset(an%mg, an%mesh%nnode)
     if (.not. allocated(u_next)) then
       allocate (u_next(an%mesh%nnode), stat=ist)
       if (alloc_failed(ist, st, 'the primal solution', an%mesh%nnode, BYTES_REAL)) return
@@ -679,9 +688,11 @@ contains
     call take_status(st_solve, res, st)
   end subroutine solve_primal
 
-  !> The primal method a level uses: settings%method, 'auto' resolved by the number of
-  !> bounded unknowns ('schur' up to settings%max_schur, 'active_set' above); 'multigrid'
-  !> without a hierarchy of at least two grids (level 1, adaptive steps) resolved as 'auto'.
+  !> The primal method a level uses: settings%method, 'auto' resolved as 'multigrid' on a
+  !> hierarchy of at least two uniform grids with more than mg_auto_min_unknowns unknowns
+  !> (O(N), several times faster than one factorisation there: doc/performance.md), else by
+  !> the number of bounded unknowns ('schur' up to settings%max_schur, 'active_set' above);
+  !> 'multigrid' without a hierarchy (level 1, adaptive steps) resolved as 'auto'.
   function primal_method_of(settings, kind, grids) result(method)
     type(analysis_settings_t), intent(in) :: settings
     integer, intent(in) :: kind(:)
@@ -689,6 +700,7 @@ contains
     character(len=16) :: method
     method = settings%method
     if (method == 'multigrid' .and. grids < 2) method = 'auto'
+    if (method == 'auto' .and. grids >= 2 .and. size(kind) > mg_auto_min_unknowns) method = 'multigrid'
     if (method == 'auto') method = merge('schur     ', 'active_set', count(kind == BOUND_LOWER) <= settings%max_schur)
   end function primal_method_of
 
