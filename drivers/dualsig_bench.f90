@@ -56,7 +56,7 @@ program dualsig_bench
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
                               analysis_start, analysis_next_level
   use dualsig_status, only: is_ok
-  use dualsig_bench_multigrid, only: bench_multigrid
+  use dualsig_bench_multigrid, only: bench_multigrid, dirichlet_decoupled
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -265,13 +265,7 @@ contains
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
       ! baseline: the same matrix with only the Dirichlet rows, one analyse+factorise+solve
-      ar = sys%a
-      do i = 1, ar%n
-        do p = ar%rowptr(i), ar%rowptr(i + 1) - 1
-          if (sys%kind(i) == BOUND_FIXED .or. sys%kind(ar%col(p)) == BOUND_FIXED) ar%val(p) = 0.0_dp
-        end do
-        if (sys%kind(i) == BOUND_FIXED) ar%val(ar%diag(i)) = 1.0_dp
-      end do
+      ar = dirichlet_decoupled(sys)
       allocate (x(ar%n))
       t0 = wall_seconds()
       call cholesky_factor(ar, chol, st, ORDERING_AMD)
@@ -467,13 +461,7 @@ contains
       call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys, st=st)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
-      ar = sys%a
-      do i = 1, ar%n
-        do p = ar%rowptr(i), ar%rowptr(i + 1) - 1
-          if (sys%kind(i) == BOUND_FIXED .or. sys%kind(ar%col(p)) == BOUND_FIXED) ar%val(p) = 0.0_dp
-        end do
-        if (sys%kind(i) == BOUND_FIXED) ar%val(ar%diag(i)) = 1.0_dp
-      end do
+      ar = dirichlet_decoupled(sys)
       allocate (xb(ar%n))
       t0 = wall_seconds()
       call geometric_ordering(mesh%xy, ar, ord, perm, st)
