@@ -21,7 +21,8 @@
 !> (first pass: int f and, times h_T, int f (x - x_T), against int_T |f|; second pass:
 !> int (f - Pi_1 f)^2 against int_T f^2 + |T| f_T^2; neither scale below that of f over the
 !> whole domain), the children's value is taken, otherwise
-!> each child is treated the same way, down to max_depth levels.  A triangle where the
+!> each child is treated the same way, down to load_max_depth levels and at most load_max_pieces
+!> subdivided pieces per triangle and pass.  A triangle where the
 !> criterion still fails is marked not converged: a bound that uses it is not certified.
 module dualsig_load_data
   use dualsig_kinds, only: dp
@@ -40,11 +41,21 @@ module dualsig_load_data
   real(dp), parameter :: load_rel_tol = 1.0e-12_dp
   !> Subdivision levels of a triangle at most (4^depth pieces where f is not resolved).
   integer, parameter :: load_max_depth = 10
-  !> From this subdivision depth on, a piece whose disagreement (per unit area) did not at
-  !> least halve over max_stalls consecutive levels is not subdivided further (and not
-  !> converged).
+  !> From this subdivision depth on, a piece is not subdivided further (and not converged)
+  !> once max_stalls levels on its way down (consecutive or not) did not at least halve the
+  !> smallest disagreement (per unit area) of the pieces above it.  Counting them all and
+  !> against the smallest one: at rounding noise the disagreement halves now and then by
+  !> chance, which reset a count of consecutive levels and let the noise go on to
+  !> load_max_depth (4^10 pieces per triangle).
   integer, parameter :: stagnation_depth = 3
   integer, parameter :: max_stalls = 4
+  !> Pieces one pass may subdivide in one triangle (4^7: the whole triangle to depth 7, or a
+  !> line across it to depth 10; at most 2.3e6 evaluations of f).  A smooth f that varies
+  !> on a scale far below the triangle (8 periods of a sine along a needle triangle of a
+  !> mutated mesh, found by the whole-program fuzzing) needed depth 9 or more nearly
+  !> everywhere: minutes per level with an expression for f.  Such a triangle is now not
+  !> converged (its bounds not certified) once the budget is spent.
+  integer, parameter :: load_max_pieces = 4**7
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
@@ -80,7 +91,7 @@ contains
     real(dp), allocatable :: br(:)
     real(dp) :: xy(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     logical :: ok1, ok2
-    integer :: t, k
+    integer :: t, k, budget
     data%ntri = mesh%ntri
     allocate (data%mean(mesh%ntri), data%moment(2, mesh%ntri), data%slope(2, mesh%ntri), data%osc(mesh%ntri), &
               data%diameter(mesh%ntri), data%converged(mesh%ntri), stat=k)
@@ -98,6 +109,7 @@ contains
       area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
       diameter = piece_size(xy)
       data%diameter(t) = diameter
+      budget = load_max_pieces
       call adapt(xy, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
       if (.not. all(ieee_is_finite(s))) then
         call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
@@ -108,6 +120,7 @@ contains
       data%moment(:, t) = s(2:3)
       data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
       slope = data%slope(:, t)
+      budget = load_max_pieces
       call adapt(xy, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
       data%osc(t) = sqrt(max(s(1), 0.0_dp))
       data%converged(t) = ok1 .and. ok2
@@ -124,8 +137,8 @@ contains
       real(dp), intent(in) :: fbar
       logical, intent(in) :: second
       real(dp), intent(in) :: density     !! the triangle's scale per unit area (< 0: set it at depth 0)
-      real(dp), intent(in) :: parent_rate !! the parent piece's disagreement per unit area
-      integer, intent(in) :: stalls       !! consecutive levels above this one where it did not halve
+      real(dp), intent(in) :: parent_rate !! the smallest disagreement per unit area of the pieces above
+      integer, intent(in) :: stalls       !! levels above this one where it did not halve
       real(dp), intent(out) :: s(nsum)
       logical, intent(out) :: ok
       real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), tol, rho, rate
@@ -154,7 +167,7 @@ contains
         ok = abs(fine(1) - coarse(1)) <= tol .and. all(abs(fine(2:3) - coarse(2:3)) <= tol * diameter)
       end if
       ! the disagreement per unit area falls by about 2^6 per level where the rule resolves f;
-      ! where it has not at least halved over max_stalls consecutive levels (from
+      ! where it has not at least halved the smallest one above on max_stalls levels (from
       ! stagnation_depth on) f jumps inside the piece or its evaluation is at its rounding
       ! noise: further subdivision cannot converge
       if (second) then
@@ -162,20 +175,21 @@ contains
       else
         rate = max(abs(fine(1) - coarse(1)), maxval(abs(fine(2:3) - coarse(2:3))) / diameter) / piece_area(xy)
       end if
-      stalled = 0
+      stalled = stalls
       if (rate > 0.5_dp * parent_rate) stalled = stalls + 1
       if (.not. ok .and. depth >= stagnation_depth .and. stalled >= max_stalls) then
         s = fine
         return
       end if
-      if (ok .or. depth >= load_max_depth .or. .not. all(ieee_is_finite(fine))) then
+      if (ok .or. depth >= load_max_depth .or. budget <= 0 .or. .not. all(ieee_is_finite(fine))) then
         s = fine
         return
       end if
+      budget = budget - 1
       s = 0.0_dp
       ok = .true.
       do c = 1, 4
-        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, rate, stalled, child, ok_child)
+        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, min(rate, parent_rate), stalled, child, ok_child)
         s = s + child
         ok = ok .and. ok_child
       end do
