@@ -1019,6 +1019,7 @@ def generate_case(seed, index, cdir, bases, max_level):
             mutation = weighted(rng, GEOMETRIC)
             what, keep = mutation(mesh, rng)
             info['mutations'].append(what)
+            info.setdefault('ops', []).append(mutation.__name__[4:])
             info['preserving'] = info['preserving'] and keep
             if mutation is mut_special_coord:       # no arithmetic on the coordinates after it
                 break
@@ -1275,6 +1276,7 @@ def main(argv=None):
     bases = base_meshes()
     counts = {c: 0 for c in OUTCOME_CLASSES + FAILURE_CLASSES}
     by_kind = {}
+    by_op = {}
     failures = []
     harness_errors = []
     groups = {}
@@ -1303,6 +1305,9 @@ def main(argv=None):
             counts[cls] += 1
             k = by_kind.setdefault(info['kind'], {})
             k[cls] = k.get(cls, 0) + 1
+            for op in set(info.get('ops', [])):
+                k = by_op.setdefault(op, {})
+                k[cls] = k.get(cls, 0) + 1
             if secs > slowest[0]:
                 slowest[:] = [secs, index]
             if secs > 5.0:
@@ -1346,6 +1351,10 @@ def main(argv=None):
     print('  failures: ' + ', '.join('%s %d' % (c, counts[c]) for c in FAILURE_CLASSES))
     for kind in sorted(by_kind):
         print('  %-9s ' % kind + ', '.join('%s %d' % (c, n) for c, n in sorted(by_kind[kind].items())))
+    print('  geometric mutations (cases containing it):')
+    for op in sorted(by_op):
+        print('    %-18s %5d: ' % (op, sum(by_op[op].values())) +
+              ', '.join('%s %d' % (c, n) for c, n in sorted(by_op[op].items())))
     print('  domain-preserving groups checked for intersecting energy intervals: %d (%d intervals)'
           % (len(groups), sum(len(v) for v in groups.values())))
     print('  slowest run: %.2f s (case %s); runs over 5 s: %d %s' % (
