@@ -41,12 +41,9 @@ module dualsig_load_data
   real(dp), parameter :: load_rel_tol = 1.0e-12_dp
   !> Subdivision levels of a triangle at most (4^depth pieces where f is not resolved).
   integer, parameter :: load_max_depth = 10
-  !> From this subdivision depth on, a piece is not subdivided further (and not converged)
-  !> once max_stalls levels on its way down (consecutive or not) did not at least halve the
-  !> smallest disagreement (per unit area) of the pieces above it.  Counting them all and
-  !> against the smallest one: at rounding noise the disagreement halves now and then by
-  !> chance, which reset a count of consecutive levels and let the noise go on to
-  !> load_max_depth (4^10 pieces per triangle).
+  !> From this subdivision depth on, a piece whose disagreement (per unit area) did not at
+  !> least halve over max_stalls consecutive levels is not subdivided further (and not
+  !> converged).
   integer, parameter :: stagnation_depth = 3
   integer, parameter :: max_stalls = 4
   !> Pieces one pass may subdivide in one triangle (4^7: the whole triangle to depth 7, or a
@@ -88,8 +85,8 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)
     type(tri_rule_t) :: rule
-    real(dp), allocatable :: br(:)
-    real(dp) :: xy(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
+    real(dp), allocatable :: br(:), br_local(:)
+    real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     logical :: ok1, ok2
     integer :: t, k, budget
     data%ntri = mesh%ntri
@@ -109,8 +106,12 @@ contains
       area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
       diameter = piece_size(xy)
       data%diameter(t) = diameter
+      ! the pieces in coordinates about the centroid: x - x_T of the moments is then exact
+      ! where the triangle is small for its distance from the origin
+      local = xy - spread(centroid, 2, 3)
+      br_local = br - centroid(1)
       budget = load_max_pieces
-      call adapt(xy, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
+      call adapt(local, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
       if (.not. all(ieee_is_finite(s))) then
         call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
           rtoa_pair(centroid) // ')')
@@ -121,7 +122,7 @@ contains
       data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
       slope = data%slope(:, t)
       budget = load_max_pieces
-      call adapt(xy, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
+      call adapt(local, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
       data%osc(t) = sqrt(max(s(1), 0.0_dp))
       data%converged(t) = ok1 .and. ok2
     end do
@@ -137,8 +138,8 @@ contains
       real(dp), intent(in) :: fbar
       logical, intent(in) :: second
       real(dp), intent(in) :: density     !! the triangle's scale per unit area (< 0: set it at depth 0)
-      real(dp), intent(in) :: parent_rate !! the smallest disagreement per unit area of the pieces above
-      integer, intent(in) :: stalls       !! levels above this one where it did not halve
+      real(dp), intent(in) :: parent_rate !! the parent piece's disagreement per unit area
+      integer, intent(in) :: stalls       !! consecutive levels above this one where it did not halve
       real(dp), intent(out) :: s(nsum)
       logical, intent(out) :: ok
       real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), tol, rho, rate
@@ -167,7 +168,7 @@ contains
         ok = abs(fine(1) - coarse(1)) <= tol .and. all(abs(fine(2:3) - coarse(2:3)) <= tol * diameter)
       end if
       ! the disagreement per unit area falls by about 2^6 per level where the rule resolves f;
-      ! where it has not at least halved the smallest one above on max_stalls levels (from
+      ! where it has not at least halved over max_stalls consecutive levels (from
       ! stagnation_depth on) f jumps inside the piece or its evaluation is at its rounding
       ! noise: further subdivision cannot converge
       if (second) then
@@ -175,7 +176,7 @@ contains
       else
         rate = max(abs(fine(1) - coarse(1)), maxval(abs(fine(2:3) - coarse(2:3))) / diameter) / piece_area(xy)
       end if
-      stalled = stalls
+      stalled = 0
       if (rate > 0.5_dp * parent_rate) stalled = stalls + 1
       if (.not. ok .and. depth >= stagnation_depth .and. stalled >= max_stalls) then
         s = fine
@@ -189,7 +190,7 @@ contains
       s = 0.0_dp
       ok = .true.
       do c = 1, 4
-        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, min(rate, parent_rate), stalled, child, ok_child)
+        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, rate, stalled, child, ok_child)
         s = s + child
         ok = ok .and. ok_child
       end do
@@ -209,7 +210,8 @@ contains
       do tt = 1, mesh%ntri
         pxy = mesh%xy(:, mesh%tri(:, tt))
         centroid = sum(pxy, dim=2) / 3.0_dp
-        sums = piece_sums(pxy, 0.0_dp, .false.)
+        br_local = br - centroid(1)
+        sums = piece_sums(pxy - spread(centroid, 2, 3), 0.0_dp, .false.)
         abs_density = abs_density + sums(5)
         sq_density = sq_density + sums(4)
         total_area = total_area + piece_area(pxy)
@@ -218,7 +220,8 @@ contains
       sq_density = sq_density / max(total_area, tiny(1.0_dp))
     end subroutine global_scales
 
-    !> The rule on the piece (cut at the breaks): the sums of the pass.
+    !> The rule on the piece xy, in coordinates about the centroid (cut at the breaks): the
+    !> sums of the pass.
     function piece_sums(xy, fbar, second) result(s)
       real(dp), intent(in) :: xy(2, 3), fbar
       logical, intent(in) :: second
@@ -226,12 +229,12 @@ contains
       type(tri_points_t) :: tp
       real(dp) :: v, d(2)
       integer :: q
-      tp = tri_points(xy, rule, br)
+      tp = tri_points(xy, rule, br_local)
       s = 0.0_dp
       do q = 1, tp%n
-        v = f%value(tp%p(1, q), tp%p(2, q))
+        v = f%value(centroid(1) + tp%p(1, q), centroid(2) + tp%p(2, q))
         data%evaluations = data%evaluations + 1
-        d = tp%p(:, q) - centroid
+        d = tp%p(:, q)
         if (second) then
           s(1) = s(1) + tp%w(q) * (v - fbar - dot_product(slope, d))**2
           s(2) = s(2) + tp%w(q) * v * v
