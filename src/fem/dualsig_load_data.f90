@@ -21,11 +21,11 @@
 !> (first pass: int f and, times h_T, int f (x - x_T), against int_T |f|; second pass:
 !> int (f - Pi_1 f)^2 against int_T f^2 + |T| f_T^2; neither scale below that of f over the
 !> whole domain), the children's value is taken, otherwise
-!> each child is treated the same way, down to load_max_depth levels and at most load_max_pieces
-!> subdivided pieces per triangle and pass.  A triangle where the
+!> each child is treated the same way, down to load_max_depth levels, at most load_max_pieces
+!> subdivided pieces per triangle and pass and load_mesh_pieces_* in the whole mesh.  A triangle where the
 !> criterion still fails is marked not converged: a bound that uses it is not certified.
 module dualsig_load_data
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
@@ -53,6 +53,13 @@ module dualsig_load_data
   !> everywhere: minutes per level with an expression for f.  Such a triangle is now not
   !> converged (its bounds not certified) once the budget is spent.
   integer, parameter :: load_max_pieces = 4**7
+  !> Pieces both passes may subdivide in all triangles of a mesh together: 8 triangles'
+  !> budgets plus 64 per triangle (a resolved f needs a few per triangle).  A mesh scaled by
+  !> 1e3 or 1e6 (the fuzzing again) makes every triangle spend its whole budget: 1e9
+  !> evaluations at level 3.  Once it is spent, no piece is subdivided: the triangles left
+  !> are not converged, and the level, which has unconverged triangles anyway (a converging
+  !> triangle needs far fewer), is not certified.
+  integer(i8), parameter :: load_mesh_pieces_fixed = 8_i8 * load_max_pieces, load_mesh_pieces_per_tri = 64_i8
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
@@ -89,6 +96,7 @@ contains
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     logical :: ok1, ok2
     integer :: t, k, budget
+    integer(i8) :: mesh_budget
     data%ntri = mesh%ntri
     allocate (data%mean(mesh%ntri), data%moment(2, mesh%ntri), data%slope(2, mesh%ntri), data%osc(mesh%ntri), &
               data%diameter(mesh%ntri), data%converged(mesh%ntri), stat=k)
@@ -100,6 +108,7 @@ contains
     if (present(breaks)) br = breaks
     rule = tri_rule(5)
     call global_scales(abs_density, sq_density)
+    mesh_budget = load_mesh_pieces_fixed + load_mesh_pieces_per_tri * mesh%ntri
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       centroid = sum(xy, dim=2) / 3.0_dp
@@ -182,11 +191,13 @@ contains
         s = fine
         return
       end if
-      if (ok .or. depth >= load_max_depth .or. budget <= 0 .or. .not. all(ieee_is_finite(fine))) then
+      if (ok .or. depth >= load_max_depth .or. budget <= 0 .or. mesh_budget <= 0 .or. &
+          .not. all(ieee_is_finite(fine))) then
         s = fine
         return
       end if
       budget = budget - 1
+      mesh_budget = mesh_budget - 1
       s = 0.0_dp
       ok = .true.
       do c = 1, 4
