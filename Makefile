@@ -7,6 +7,7 @@
 #   make bench      benchmarks (see doc/performance.md); make bench-vtu: .vtu sizes, ascii vs binary
 #   make plots      plots under out/ (make plots CSV=out/run.csv: one's own run); make doc-figures
 #   make stress     the numerical stability stress suite (see doc/stress.md)
+#   make fuzz       10^4 mutated inputs through bin/dualsig (see doc/testing.md, Fuzzing)
 #   make BUILD=debug        the checked build (-fcheck=all, FPE traps) into build/debug
 #   make FFLAGS='...'       override the compiler flags
 #   make check PFUNIT_DIR=/path/to/pfunit/installed/PFUNIT-4.x   run the suite with real pFUnit
@@ -76,7 +77,7 @@ SUPPORT_MODDIR := $(call support_mod,$(BUILD))
 SUPPORT_OBJS   := $(patsubst %.f90,$(BLD)/support/%.o,$(notdir $(SUPPORT_SRCS)))
 # (test/pfunit.mk links build/debug/libdualsig_support.a and reads build/debug/support-mod)
 
-.PHONY: all lib support run check check-lite check-asan check-layers deps bench bench-quick bench-vtu bench-plots bench-peers bench-deps plots stress clean distclean
+.PHONY: all lib support run check check-lite check-asan check-layers deps bench bench-quick bench-vtu bench-plots bench-peers bench-deps plots stress fuzz clean distclean
 all: $(LIBRARY) $(DRIVER) $(SUPPORT_LIB)
 lib: $(LIBRARY)
 support: $(SUPPORT_LIB)
@@ -203,6 +204,23 @@ check-asan: deps
 	@$(MAKE) BUILD=asan FFLAGS="$(ASAN_FLAGS)" all
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:allocator_may_return_null=1 UBSAN_OPTIONS=halt_on_error=1 \
 	  $(MAKE) check-lite TEST_BUILD=asan TEST_FLAGS="$(ASAN_FLAGS)"
+
+# ---------------------------------------------------------------- fuzzing
+# make fuzz   FUZZ_N mutated inputs (namelists, mesh files of every format, folded and broken
+#             meshes) through the optimised bin/dualsig, FUZZ_JOBS at a time (tools/fuzz_driver.py,
+#             doc/testing.md#fuzzing); reproducers of failures in $(FUZZ_OUT)/failures/;
+#             exit status 1 on any crash, hang or wrong certified result.  About 15 minutes
+#             for 10^4 cases with 2 jobs.
+FUZZ_N ?= 10000
+FUZZ_SEED ?= 18
+FUZZ_JOBS ?= 2
+FUZZ_OUT ?= out/fuzz
+FUZZ_OPTIONS ?=
+fuzz: deps
+	@$(MAKE) all
+	@rm -rf $(FUZZ_OUT)
+	@python3 tools/fuzz_driver.py --driver $(DRIVER) --n $(FUZZ_N) --seed $(FUZZ_SEED) --jobs $(FUZZ_JOBS) \
+	   --out $(FUZZ_OUT) $(FUZZ_OPTIONS)
 
 # ---------------------------------------------------------------- benchmarks
 # make bench        all tables (about 12 minutes, 10 GB: the largest meshes have 1e6 nodes), plots

@@ -21,10 +21,11 @@
 !> (first pass: int f and, times h_T, int f (x - x_T), against int_T |f|; second pass:
 !> int (f - Pi_1 f)^2 against int_T f^2 + |T| f_T^2; neither scale below that of f over the
 !> whole domain), the children's value is taken, otherwise
-!> each child is treated the same way, down to max_depth levels.  A triangle where the
+!> each child is treated the same way, down to load_max_depth levels, at most load_max_pieces
+!> subdivided pieces per triangle and pass and load_mesh_pieces_* in the whole mesh.  A triangle where the
 !> criterion still fails is marked not converged: a bound that uses it is not certified.
 module dualsig_load_data
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
@@ -46,6 +47,20 @@ module dualsig_load_data
   !> converged).
   integer, parameter :: stagnation_depth = 3
   integer, parameter :: max_stalls = 4
+  !> Pieces one pass may subdivide in one triangle (4^7: the whole triangle to depth 7, or a
+  !> line across it to depth 10; at most 2.3e6 evaluations of f).  A smooth f that varies
+  !> on a scale far below the triangle (8 periods of a sine along a needle triangle of a
+  !> mutated mesh, found by the whole-program fuzzing) needed depth 9 or more nearly
+  !> everywhere: minutes per level with an expression for f.  Such a triangle is now not
+  !> converged (its bounds not certified) once the budget is spent.
+  integer, parameter :: load_max_pieces = 4**7
+  !> Pieces both passes may subdivide in all triangles of a mesh together: 8 triangles'
+  !> budgets plus 64 per triangle (a resolved f needs a few per triangle).  A mesh scaled by
+  !> 1e3 or 1e6 (the fuzzing again) makes every triangle spend its whole budget: 1e9
+  !> evaluations at level 3.  Once it is spent, no piece is subdivided: the triangles left
+  !> are not converged, and the level, which has unconverged triangles anyway (a converging
+  !> triangle needs far fewer), is not certified.
+  integer(i8), parameter :: load_mesh_pieces_fixed = 8_i8 * load_max_pieces, load_mesh_pieces_per_tri = 64_i8
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
@@ -78,10 +93,11 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)
     type(tri_rule_t) :: rule
-    real(dp), allocatable :: br(:)
-    real(dp) :: xy(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
+    real(dp), allocatable :: br(:), br_local(:)
+    real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     logical :: ok1, ok2
-    integer :: t, k
+    integer :: t, k, budget
+    integer(i8) :: mesh_budget
     data%ntri = mesh%ntri
     allocate (data%mean(mesh%ntri), data%moment(2, mesh%ntri), data%slope(2, mesh%ntri), data%osc(mesh%ntri), &
               data%diameter(mesh%ntri), data%converged(mesh%ntri), stat=k)
@@ -90,13 +106,19 @@ contains
     if (present(breaks)) br = breaks
     rule = tri_rule(5)
     call global_scales(abs_density, sq_density)
+    mesh_budget = load_mesh_pieces_fixed + load_mesh_pieces_per_tri * mesh%ntri
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       centroid = sum(xy, dim=2) / 3.0_dp
       area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
       diameter = piece_size(xy)
       data%diameter(t) = diameter
-      call adapt(xy, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
+      ! the pieces in coordinates about the centroid: x - x_T of the moments is then exact
+      ! where the triangle is small for its distance from the origin
+      local = xy - spread(centroid, 2, 3)
+      br_local = br - centroid(1)
+      budget = load_max_pieces
+      call adapt(local, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
       if (.not. all(ieee_is_finite(s))) then
         call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
           rtoa_pair(centroid) // ')')
@@ -106,7 +128,8 @@ contains
       data%moment(:, t) = s(2:3)
       data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
       slope = data%slope(:, t)
-      call adapt(xy, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
+      budget = load_max_pieces
+      call adapt(local, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
       data%osc(t) = sqrt(max(s(1), 0.0_dp))
       data%converged(t) = ok1 .and. ok2
     end do
@@ -166,10 +189,13 @@ contains
         s = fine
         return
       end if
-      if (ok .or. depth >= load_max_depth .or. .not. all(ieee_is_finite(fine))) then
+      if (ok .or. depth >= load_max_depth .or. budget <= 0 .or. mesh_budget <= 0 .or. &
+          .not. all(ieee_is_finite(fine))) then
         s = fine
         return
       end if
+      budget = budget - 1
+      mesh_budget = mesh_budget - 1
       s = 0.0_dp
       ok = .true.
       do c = 1, 4
@@ -193,7 +219,8 @@ contains
       do tt = 1, mesh%ntri
         pxy = mesh%xy(:, mesh%tri(:, tt))
         centroid = sum(pxy, dim=2) / 3.0_dp
-        sums = piece_sums(pxy, 0.0_dp, .false.)
+        br_local = br - centroid(1)
+        sums = piece_sums(pxy - spread(centroid, 2, 3), 0.0_dp, .false.)
         abs_density = abs_density + sums(5)
         sq_density = sq_density + sums(4)
         total_area = total_area + piece_area(pxy)
@@ -202,7 +229,8 @@ contains
       sq_density = sq_density / max(total_area, tiny(1.0_dp))
     end subroutine global_scales
 
-    !> The rule on the piece (cut at the breaks): the sums of the pass.
+    !> The rule on the piece xy, in coordinates about the centroid (cut at the breaks): the
+    !> sums of the pass.
     function piece_sums(xy, fbar, second) result(s)
       real(dp), intent(in) :: xy(2, 3), fbar
       logical, intent(in) :: second
@@ -210,12 +238,12 @@ contains
       type(tri_points_t) :: tp
       real(dp) :: v, d(2)
       integer :: q
-      tp = tri_points(xy, rule, br)
+      tp = tri_points(xy, rule, br_local)
       s = 0.0_dp
       do q = 1, tp%n
-        v = f%value(tp%p(1, q), tp%p(2, q))
+        v = f%value(centroid(1) + tp%p(1, q), centroid(2) + tp%p(2, q))
         data%evaluations = data%evaluations + 1
-        d = tp%p(:, q) - centroid
+        d = tp%p(:, q)
         if (second) then
           s(1) = s(1) + tp%w(q) * (v - fbar - dot_product(slope, d))**2
           s(2) = s(2) + tp%w(q) * v * v
