@@ -270,12 +270,16 @@ class Problem:
         import numpy as np
         t0 = time.perf_counter()
         self.base = base
-        n, rows, cols, vals = read_mm_coo(base + '_A.mtx')
+        self.ends = None
+        if base.endswith('.bin'):
+            n, rows, cols, vals = self._read_binary(base)
+        else:
+            n, rows, cols, vals = read_mm_coo(base + '_A.mtx')
+            self.F = read_mm_array(base + '_F.mtx')
+            self.kind = read_mm_array(base + '_kind.mtx').astype(np.int64)
+            self.bnd = read_mm_array(base + '_bnd.mtx')
+            self.xref = read_mm_array(base + '_x.mtx')
         self.n = n
-        self.F = read_mm_array(base + '_F.mtx')
-        self.kind = read_mm_array(base + '_kind.mtx').astype(np.int64)
-        self.bnd = read_mm_array(base + '_bnd.mtx')
-        self.xref = read_mm_array(base + '_x.mtx')
         for name, v in (('F', self.F), ('kind', self.kind), ('bnd', self.bnd), ('x', self.xref)):
             if v.size != n:
                 raise ValueError('%s_%s.mtx: size %d, A has %d' % (base, name, v.size, n))
@@ -326,6 +330,43 @@ class Problem:
         self.t_reduce = time.perf_counter() - t0
         self.ref_kkt = self.kkt_full(self.xref)
         self.ref_scale = float(np.max(np.abs(self.xref))) if n else 0.0
+
+    def _read_binary(self, path):
+        """The binary export of `bin/dualsig_bench peers` (drivers/support/dualsig_bench_peers.f90):
+        'DSQP0001', n, nnz, ne (int32), rowptr(n+1), col(nnz) (int32, 1-based), val(nnz),
+        F, bnd, x (float64), kind(n), ends(2, ne) (int32, 1-based)."""
+        import numpy as np
+        with open(path, 'rb') as fh:
+            if fh.read(8) != b'DSQP0001':
+                raise ValueError('%s: not a dualsig binary QP' % path)
+            n, nnz, ne = (int(v) for v in np.fromfile(fh, dtype='<i4', count=3))
+            rowptr = np.fromfile(fh, dtype='<i4', count=n + 1).astype(np.int64) - 1
+            cols = np.fromfile(fh, dtype='<i4', count=nnz).astype(np.int64) - 1
+            vals = np.fromfile(fh, dtype='<f8', count=nnz)
+            self.F = np.fromfile(fh, dtype='<f8', count=n)
+            self.bnd = np.fromfile(fh, dtype='<f8', count=n)
+            self.xref = np.fromfile(fh, dtype='<f8', count=n)
+            self.kind = np.fromfile(fh, dtype='<i4', count=n).astype(np.int64)
+            ends = np.fromfile(fh, dtype='<i4', count=2 * ne)
+        if ends.size != 2 * ne or vals.size != nnz:
+            raise ValueError('%s: truncated file' % path)
+        self.ends = ends.reshape(ne, 2).astype(np.int64) - 1
+        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(rowptr))
+        return n, rows, cols, vals
+
+    def prolong(self, xc):
+        """P1 interpolation of the previous level's x onto this level (coarse nodes first,
+        then the edge midpoints), with the fixed values and the lower bounds imposed."""
+        import numpy as np
+        nc = self.n - self.ends.shape[0]
+        x = np.empty(self.n)
+        x[:nc] = xc
+        x[nc:] = 0.5 * (xc[self.ends[:, 0]] + xc[self.ends[:, 1]])
+        fixed = self.kind == 2
+        x[fixed] = self.bnd[fixed]
+        low = self.kind == 1
+        x[low] = np.maximum(x[low], self.bnd[low])
+        return x
 
     def kkt_reduced(self, y, Ay):
         """Relative KKT residual from reduced y and A_rr y (numpy arrays)."""
@@ -454,7 +495,7 @@ def wrap_gamg(PETSc, ksp, prefix, opts):
     return True
 
 
-def run_solver(name, prob, tol, time_limit, user_opts, conn):
+def run_solver(name, prob, tol, time_limit, user_opts, conn, y0=None, want_x=False):
     """Runs in a forked child: set up and solve with one PETSc solver, send a result dict."""
     res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
            'iterations': -1, 'ksp_iterations': -1, 'kkt': float('nan'),
@@ -492,8 +533,11 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
         xla[prob.bidx] = prob.lb
         xl.setArray(xla)
         x = A.createVecRight()
-        x0 = np.zeros(m)
-        x0[prob.bidx] = np.maximum(0.0, prob.lb)
+        if y0 is None:                       # cold: zero projected onto the bounds
+            x0 = np.zeros(m)
+            x0[prob.bidx] = np.maximum(0.0, prob.lb)
+        else:                                # warm: the given start (reduced numbering)
+            x0 = np.array(y0, dtype=float)
         x.setArray(x0)
         work = A.createVecRight()
 
@@ -617,6 +661,8 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
 
         y = xsol.getArray(readonly=True).copy()
         xfull = prob.full_x(y)
+        if want_x:
+            res['x'] = xfull
         res['kkt'] = prob.kkt_full(xfull)
         res['rel_diff'] = prob.rel_diff(xfull)
         if res['kkt'] <= tol:
@@ -630,6 +676,11 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
     except Exception as e:                        # report, never hang the parent
         res['status'] = 'error: %s' % (str(e).strip().splitlines() or [type(e).__name__])[0]
         res['traceback'] = traceback.format_exc()
+    try:
+        import resource
+        res['peak_mb'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    except Exception:                             # not on this platform
+        res['peak_mb'] = float('nan')
     try:
         conn.send(res)
     finally:
@@ -645,12 +696,14 @@ def _reason_name(enum, value):
 
 # --------------------------------------------------------------------------- parent
 
-def run_one(name, prob, args):
-    """Run one solver in a forked child with a hard timeout."""
+def run_one(name, prob, args, y0=None, want_x=False):
+    """Run one solver in a forked child with a hard timeout (start y0: reduced numbering,
+    None = cold; want_x: the result carries the full solution as 'x')."""
     ctx = mp.get_context('fork')
     rd, wr = ctx.Pipe(duplex=False)
     p = ctx.Process(target=run_solver,
-                    args=(name, prob, args.tol, args.time_limit, args.petsc_options, wr))
+                    args=(name, prob, args.tol, args.time_limit, args.petsc_options, wr),
+                    kwargs={'y0': y0, 'want_x': want_x})
     p.start()
     wr.close()
     hard = 1.25 * args.time_limit + 30.0
@@ -682,6 +735,135 @@ def fmt_row(cols, widths):
     return '  '.join(out)
 
 
+# --------------------------------------------------------------------------- fair mode
+
+def read_dualsig_csv(path):
+    """Rows of out/peers/<scene>_dualsig.csv by (pass, level)."""
+    out = {}
+    with open(path, newline='') as fh:
+        for r in csv.DictReader(fh):
+            out[(r['pass'], int(r['level']))] = r
+    return out
+
+
+def loadavg():
+    try:
+        return '%.2f %.2f %.2f' % os.getloadavg()
+    except OSError:
+        return '?'
+
+
+def fair_main(args, names, seq_names):
+    """Issue 16 item 4: (a) cold against cold on the finest exported QP, (b) the whole grid
+    sequence against PETSc's own grid sequencing on the same exported QPs, (c) multigrid
+    against VINEWTONRSLS + BoomerAMG / GAMG (part of (a) and (b)); ratios within this run."""
+    prefix, lmax = args.fair, args.level
+    scene = os.path.basename(prefix)
+    dcsv = prefix + '_dualsig.csv'
+    if not os.path.exists(dcsv):
+        print('petsc_peers: %s missing: run bin/dualsig_bench peers %d %s first' % (dcsv, lmax, scene))
+        return 1
+    ds = read_dualsig_csv(dcsv)
+    dcmd = 'bin/dualsig_bench peers %d %s' % (lmax, scene)
+    pcmd = 'python3 bench/petsc_peers.py --fair %s --level %d' % (prefix, lmax)
+    rows_out = []
+    mg_seq = ds.get(('sequence', lmax))
+    mg_cold = ds.get(('cold_multigrid', lmax))
+    schur_cold = ds.get(('cold_schur', lmax))
+    if mg_seq is None or mg_cold is None:
+        print('petsc_peers: %s has no level %d rows' % (dcsv, lmax))
+        return 1
+
+    prob = Problem('%s_l%d.bin' % (prefix, lmax))
+    print('\n(a), (c) cold against cold: %s level %d, n = %d (reduced m = %d), KKT tol %.0e, '
+          'every solver from x = 0 (projected onto the bounds); load average %s'
+          % (scene, lmax, prob.n, prob.m, args.tol, loadavg()), flush=True)
+    print('  dualsig (%s): cold multigrid %.3f s (%s V-cycles; x = 0 on the geometric hierarchy, '
+          'nested start on the restricted QPs)%s'
+          % (dcmd, float(mg_cold['seconds']), mg_cold['iterations'],
+             '' if schur_cold is None else '; cold schur %.3f s (%s pivoting steps; the mesh as '
+             'one level, no hierarchy)' % (float(schur_cold['seconds']), schur_cold['iterations'])))
+    t_mg_cold = float(mg_cold['seconds'])
+    t_schur = float(schur_cold['seconds']) if schur_cold is not None else float('nan')
+    print('  %-14s %9s %9s %5s %7s %10s %9s %9s %8s %12s %12s  %s' %
+          ('PETSc solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'peak_MB',
+           'load', '/mg_cold', '/schur_cold', 'status'), flush=True)
+    for name in names:
+        r = run_one(name, prob, args)
+        la = loadavg().split()[0]
+        ok = r['status'] == 'converged'
+        rm = r['solve_s'] / t_mg_cold
+        rs = r['solve_s'] / t_schur
+        fmt = (lambda v: ('%.1fx' % v) if ok else ('>%.1fx' % v if v == v else '-'))
+        print('  %-14s %9.3f %9.3f %5d %7d %10.2e %9.1e %9.0f %8s %12s %12s  %s' %
+              (name, r['setup_s'], r['solve_s'], r['iterations'], r['ksp_iterations'], r['kkt'],
+               r['rel_diff'], r.get('peak_mb', float('nan')), la, fmt(rm), fmt(rs), r['status']),
+              flush=True)
+        if 'traceback' in r:
+            sys.stderr.write(r['traceback'])
+        rows_out.append(['cold', scene, lmax, prob.n, name, '%.4f' % r['setup_s'],
+                         '%.4f' % r['solve_s'], r['iterations'], r['ksp_iterations'],
+                         '%.3e' % r['kkt'], '%.0f' % r.get('peak_mb', float('nan')), la,
+                         '%.4f' % t_mg_cold, '%.4f' % t_schur, r['status']])
+    del prob
+
+    t_seq = float(mg_seq['cumulative_s'])
+    print('\n(b), (c) the whole grid sequence, levels 1..%d of %s, KKT tol %.0e on every level; '
+          'PETSc solves level l from the P1 interpolation of its level l-1 solution (its own grid '
+          'sequencing, level 1 from x = 0); load average %s'
+          % (lmax, scene, args.tol, loadavg()), flush=True)
+    print('  dualsig (%s): multigrid grid sequence %.3f s in all (level %d: %.3f s, %s V-cycles)'
+          % (dcmd, t_seq, lmax, float(mg_seq['seconds']), mg_seq['iterations']))
+    print('  %-14s %11s %11s %9s %9s %10s %9s %8s %12s  %s' %
+          ('PETSc solver', 'sum solve_s', 'sum setup_s', 'its(L)', 'its(all)', 'kkt(L)',
+           'peak_MB', 'load', '/dualsig', 'status'), flush=True)
+    for name in seq_names:
+        tot, tot_setup, its_all, peak, status, x, r = 0.0, 0.0, 0, 0.0, 'converged', None, None
+        for level in range(1, lmax + 1):
+            p = Problem('%s_l%d.bin' % (prefix, level))
+            y0 = None if x is None else p.prolong(x)[p.keep_idx]
+            r = run_one(name, p, args, y0=y0, want_x=True)
+            tot += r['solve_s']
+            tot_setup += r['setup_s']
+            its_all += max(r['iterations'], 0)
+            peak = max(peak, r.get('peak_mb', 0.0) or 0.0)
+            if r['status'] != 'converged':
+                status = 'level %d: %s' % (level, r['status'])
+            if 'traceback' in r:
+                sys.stderr.write(r['traceback'])
+            if 'x' not in r:
+                status = 'level %d: %s' % (level, r['status'])
+                break
+            x = r['x']
+            del p
+        la = loadavg().split()[0]
+        ratio = tot / t_seq
+        print('  %-14s %11.3f %11.3f %9d %9d %10.2e %9.0f %8s %12s  %s' %
+              (name, tot, tot_setup, r['iterations'], its_all, r['kkt'], peak, la,
+               ('%.1fx' % ratio) if status == 'converged' else '-', status), flush=True)
+        rows_out.append(['sequence', scene, lmax, '', name, '%.4f' % tot_setup, '%.4f' % tot,
+                         r['iterations'], its_all, '%.3e' % r['kkt'], '%.0f' % peak, la,
+                         '%.4f' % t_seq, '', status])
+    print('\n  commands: make bench-peers PEER_LEVEL=%d PEER_SCENE=%s, i.e. %s && %s '
+          '(solve_s: the solve phase; setup_s: PETSc Mat/Vec/solver creation from the CSR '
+          'arrays, the analogue of dualsig\'s assembly, which is not timed either)'
+          % (lmax, scene, dcmd, pcmd))
+    if args.csv:
+        d = os.path.dirname(args.csv)
+        if d:
+            os.makedirs(d, exist_ok=True)
+        new = not os.path.exists(args.csv) or os.path.getsize(args.csv) == 0
+        with open(args.csv, 'a', newline='') as fh:
+            w = csv.writer(fh)
+            if new:
+                w.writerow(['comparison', 'scene', 'level', 'n', 'solver', 'setup_s', 'solve_s',
+                            'iterations', 'ksp_or_all_iterations', 'kkt', 'peak_mb', 'load1',
+                            'dualsig_s', 'dualsig_schur_cold_s', 'status'])
+            w.writerows(rows_out)
+        print('petsc_peers: %d row(s) appended to %s' % (len(rows_out), args.csv))
+    return 0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -692,6 +874,12 @@ def main(argv=None):
     ap.add_argument('--solvers', default=','.join(SOLVERS))
     ap.add_argument('--petsc-options', default='')
     ap.add_argument('--list', action='store_true')
+    ap.add_argument('--fair', metavar='PREFIX', default='',
+                    help='fair mode on the binary exports PREFIX_l<level>.bin and '
+                         'PREFIX_dualsig.csv of `bin/dualsig_bench peers`')
+    ap.add_argument('--level', type=int, default=10, help='fair mode: the finest level')
+    ap.add_argument('--seq-solvers', default='snes-vi-hypre,snes-vi-gamg',
+                    help='fair mode: the solvers run through the whole grid sequence')
     args = ap.parse_args(argv)
 
     names = [s.strip() for s in args.solvers.split(',') if s.strip()]
@@ -702,8 +890,12 @@ def main(argv=None):
         for s in SOLVERS:
             print('%-13s %-5s %-13s %s' % (s, SOLVERS[s][0], SOLVERS[s][1], default_options(s)))
         return 0
-    if not args.bases:
-        ap.error('at least one BASE is required')
+    seq_names = [s.strip() for s in args.seq_solvers.split(',') if s.strip()]
+    bad = [s for s in seq_names if s not in SOLVERS]
+    if bad:
+        ap.error('unknown solver(s) %s; known: %s' % (', '.join(bad), ', '.join(SOLVERS)))
+    if not args.bases and not args.fair:
+        ap.error('at least one BASE (or --fair PREFIX) is required')
 
     if not ensure_petsc4py():
         print(SKIP_LINE)
@@ -711,6 +903,8 @@ def main(argv=None):
     # Open MPI: let each child's MPI_Init run as an isolated singleton instead of spawning
     # an orted helper process per solver run
     os.environ.setdefault('OMPI_MCA_ess_singleton_isolated', '1')
+    if args.fair:
+        return fair_main(args, names, seq_names)
 
     widths = [13, 8, 8, 8, 8, 10, 10, 0]
     head = ['solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'status']
