@@ -205,9 +205,12 @@ check-asan: deps
 	  $(MAKE) check-lite TEST_BUILD=asan TEST_FLAGS="$(ASAN_FLAGS)"
 
 # ---------------------------------------------------------------- benchmarks
-# make bench        all tables (about 12 minutes, 10 GB: the largest meshes have 1e6 nodes), plots
+# make bench        all tables (about 12 minutes, 10 GB: the largest meshes have 1e6 nodes), plots,
+#                   then the fair PETSc comparison of make bench-peers at 10^6 (about 5 more
+#                   minutes; BENCH_PEERS=0 leaves it out)
 # make bench-quick  the small tables only (primal, dual_p1, dual_p2 sections; about 1 minute)
-# make bench-peers  the same QPs solved by PETSc (python3-petsc4py), if installed
+# make bench-peers  the fair PETSc comparison (python3-petsc4py, installed when root; below)
+BENCH_PEERS ?= 1
 BENCH_PACKAGES := gnuplot-nox
 bench-deps: deps
 	@if ! command -v gnuplot >/dev/null; then \
@@ -220,6 +223,7 @@ bench: bench-deps
 	@$(MAKE) -s bin/dualsig_bench
 	@./bin/dualsig_bench
 	@$(MAKE) -s bench-plots
+	@if [ "$(BENCH_PEERS)" != 0 ]; then $(MAKE) -s bench-peers; fi
 
 bench-quick: bench-deps
 	@$(MAKE) all
@@ -286,7 +290,8 @@ doc-figures:
 PEER_PACKAGES := python3-petsc4py
 PEER_LEVEL ?= 10
 PEER_SCENE ?= p2_contact
-PEER_OPTIONS ?= --time-limit 400
+PEER_SOLVERS ?= snes-vi-hypre,snes-vi-gamg,snes-vi-chol,tao-tron
+PEER_OPTIONS ?= --time-limit 400 --mem-limit-gb 16
 bench-peers: bench-deps
 	@if ! dpkg-query -W -f='$${Status}' $(PEER_PACKAGES) 2>/dev/null | grep -q "install ok installed"; then \
 	  if [ "$$(id -u)" = 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
@@ -295,7 +300,7 @@ bench-peers: bench-deps
 	@$(MAKE) -s bin/dualsig_bench
 	@./bin/dualsig_bench peers $(PEER_LEVEL) $(PEER_SCENE)
 	@python3 bench/petsc_peers.py --fair out/peers/$(PEER_SCENE) --level $(PEER_LEVEL) \
-	  --solvers snes-vi-hypre,snes-vi-gamg,snes-vi-chol,tao-tron --csv out/bench_peers_fair.csv $(PEER_OPTIONS)
+	  --solvers $(PEER_SOLVERS) --csv out/bench_peers_fair.csv $(PEER_OPTIONS)
 
 bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) $(SUPPORT_LIB) | bin
 	$(FC) $(STD_FLAGS) $(FFLAGS) -I$(SUPPORT_MODDIR) -Iinclude $< -o $@ $(SUPPORT_LIB) $(LIBRARY) $(LIBS)

@@ -29,6 +29,30 @@ Usage
                     them; use the solver's prefix, e.g. "-tron_pc_type gamg -vigamg_ksp_rtol 1e-4"
     --list          print the solvers and their PETSc options and exit
 
+Fair mode (issue 16 item 4; what `make bench-peers` runs)
+--------------------------------------------------------
+    bin/dualsig_bench peers L SCENE
+    python3 bench/petsc_peers.py --fair out/peers/SCENE --level L [--solvers a,b,...]
+                                 [--seq-solvers a,b,...] [--mem-limit-gb G] [...]
+
+`bin/dualsig_bench peers` (drivers/support/dualsig_bench_peers.f90) runs dualsig's multigrid
+grid sequence to level L, exports every level's QP in binary (out/peers/SCENE_l<l>.bin: the
+CSR matrix, F, kinds, bounds, dualsig's x and the prolongation from level l-1, format in
+that file's header) and times cold solves of the finest QP from x = 0: 'multigrid' on the
+same hierarchy and 'schur' on the finest mesh given as one level; the times go to
+out/peers/SCENE_dualsig.csv.  The fair mode then, right after it on the same machine:
+  (a), (c) cold against cold: each of --solvers on the level-L QP from x = 0 (projected onto
+      the bounds), ratios to dualsig's cold multigrid and cold schur;
+  (b), (c) the whole grid sequence: each of --seq-solvers (default snes-vi-hypre,
+      snes-vi-gamg) solves levels 1..L in turn, level l from the P1 interpolation of its own
+      level l-1 solution (dualsig's prolongation, read from the export; fixed values and
+      lower bounds imposed), to the same KKT tolerance on every level; the sum of the solve
+      phases against dualsig's whole sequence.
+--mem-limit-gb limits each solver child's address space (RLIMIT_AS, the parent's shared
+pages included): a problem PETSc cannot hold ends in an out-of-memory abort (reported)
+instead of pressing a shared machine.  Rows are appended to --csv (make bench-peers:
+out/bench_peers_fair.csv) with the load average at the end of each run.
+
 If petsc4py cannot be imported the script prints one line
 "petsc_peers: PETSc (python3-petsc4py) not installed; skipped" and exits with status 0.
 
@@ -341,7 +365,7 @@ class Problem:
                 raise ValueError('%s: not a dualsig binary QP' % path)
             n, nnz, ne = (int(v) for v in np.fromfile(fh, dtype='<i4', count=3))
             rowptr = np.fromfile(fh, dtype='<i4', count=n + 1).astype(np.int64) - 1
-            cols = np.fromfile(fh, dtype='<i4', count=nnz).astype(np.int64) - 1
+            cols = np.fromfile(fh, dtype='<i4', count=nnz) - 1     # int32: half the memory
             vals = np.fromfile(fh, dtype='<f8', count=nnz)
             self.F = np.fromfile(fh, dtype='<f8', count=n)
             self.bnd = np.fromfile(fh, dtype='<f8', count=n)
@@ -351,7 +375,7 @@ class Problem:
         if ends.size != 2 * ne or vals.size != nnz:
             raise ValueError('%s: truncated file' % path)
         self.ends = ends.reshape(ne, 2).astype(np.int64) - 1
-        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(rowptr))
+        rows = np.repeat(np.arange(n, dtype=np.int32), np.diff(rowptr))
         return n, rows, cols, vals
 
     def prolong(self, xc):
@@ -495,12 +519,20 @@ def wrap_gamg(PETSc, ksp, prefix, opts):
     return True
 
 
-def run_solver(name, prob, tol, time_limit, user_opts, conn, y0=None, want_x=False):
-    """Runs in a forked child: set up and solve with one PETSc solver, send a result dict."""
+def run_solver(name, prob, tol, time_limit, user_opts, conn, y0=None, want_x=False,
+               mem_limit_gb=0.0):
+    """Runs in a forked child: set up and solve with one PETSc solver, send a result dict.
+    mem_limit_gb > 0: the child's address space is limited to that (RLIMIT_AS, including
+    the parent's pages it shares), so that a problem PETSc cannot hold ends in an
+    out-of-memory error instead of pressing the shared machine."""
     res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
            'iterations': -1, 'ksp_iterations': -1, 'kkt': float('nan'),
            'rel_diff': float('nan'), 'status': 'error'}
     try:
+        if mem_limit_gb > 0:
+            import resource
+            lim = int(mem_limit_gb * 2 ** 30)
+            resource.setrlimit(resource.RLIMIT_AS, (lim, lim))
         import numpy as np
         import petsc4py
         petsc4py.init([sys.argv[0]])
@@ -700,10 +732,12 @@ def run_one(name, prob, args, y0=None, want_x=False):
     """Run one solver in a forked child with a hard timeout (start y0: reduced numbering,
     None = cold; want_x: the result carries the full solution as 'x')."""
     ctx = mp.get_context('fork')
+    parent_mb = rss_mb()
     rd, wr = ctx.Pipe(duplex=False)
     p = ctx.Process(target=run_solver,
                     args=(name, prob, args.tol, args.time_limit, args.petsc_options, wr),
-                    kwargs={'y0': y0, 'want_x': want_x})
+                    kwargs={'y0': y0, 'want_x': want_x,
+                            'mem_limit_gb': getattr(args, 'mem_limit_gb', 0.0)})
     p.start()
     wr.close()
     hard = 1.25 * args.time_limit + 30.0
@@ -719,12 +753,24 @@ def run_one(name, prob, args, y0=None, want_x=False):
             status = 'killed (hard timeout)'
         else:
             status = 'error: child exited with code %s' % p.exitcode
+            if getattr(args, 'mem_limit_gb', 0.0) > 0:
+                status += ' (PETSc aborted; out of memory within --mem-limit-gb %g?)' % args.mem_limit_gb
         res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
                'iterations': -1, 'ksp_iterations': -1, 'kkt': float('nan'),
                'rel_diff': float('nan'), 'status': status}
     p.join(10)
     rd.close()
+    res['parent_mb'] = parent_mb
     return res
+
+
+def rss_mb():
+    """Resident memory of this process in MB (0 when /proc is not there)."""
+    try:
+        with open('/proc/self/statm') as fh:
+            return int(fh.read().split()[1]) * os.sysconf('SC_PAGE_SIZE') / 2.0 ** 20
+    except (OSError, ValueError, IndexError):
+        return 0.0
 
 
 def fmt_row(cols, widths):
@@ -774,37 +820,40 @@ def fair_main(args, names, seq_names):
         print('petsc_peers: %s has no level %d rows' % (dcsv, lmax))
         return 1
 
-    prob = Problem('%s_l%d.bin' % (prefix, lmax))
-    print('\n(a), (c) cold against cold: %s level %d, n = %d (reduced m = %d), KKT tol %.0e, '
-          'every solver from x = 0 (projected onto the bounds); load average %s'
-          % (scene, lmax, prob.n, prob.m, args.tol, loadavg()), flush=True)
-    print('  dualsig (%s): cold multigrid %.3f s (%s V-cycles; x = 0 on the geometric hierarchy, '
-          'nested start on the restricted QPs)%s'
-          % (dcmd, float(mg_cold['seconds']), mg_cold['iterations'],
-             '' if schur_cold is None else '; cold schur %.3f s (%s pivoting steps; the mesh as '
-             'one level, no hierarchy)' % (float(schur_cold['seconds']), schur_cold['iterations'])))
-    t_mg_cold = float(mg_cold['seconds'])
-    t_schur = float(schur_cold['seconds']) if schur_cold is not None else float('nan')
-    print('  %-14s %9s %9s %5s %7s %10s %9s %9s %8s %12s %12s  %s' %
-          ('PETSc solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'peak_MB',
-           'load', '/mg_cold', '/schur_cold', 'status'), flush=True)
-    for name in names:
-        r = run_one(name, prob, args)
-        la = loadavg().split()[0]
-        ok = r['status'] == 'converged'
-        rm = r['solve_s'] / t_mg_cold
-        rs = r['solve_s'] / t_schur
-        fmt = (lambda v: ('%.1fx' % v) if ok else ('>%.1fx' % v if v == v else '-'))
-        print('  %-14s %9.3f %9.3f %5d %7d %10.2e %9.1e %9.0f %8s %12s %12s  %s' %
-              (name, r['setup_s'], r['solve_s'], r['iterations'], r['ksp_iterations'], r['kkt'],
-               r['rel_diff'], r.get('peak_mb', float('nan')), la, fmt(rm), fmt(rs), r['status']),
-              flush=True)
-        if 'traceback' in r:
-            sys.stderr.write(r['traceback'])
-        rows_out.append(['cold', scene, lmax, prob.n, name, '%.4f' % r['setup_s'],
-                         '%.4f' % r['solve_s'], r['iterations'], r['ksp_iterations'],
-                         '%.3e' % r['kkt'], '%.0f' % r.get('peak_mb', float('nan')), la,
-                         '%.4f' % t_mg_cold, '%.4f' % t_schur, r['status']])
+    prob = Problem('%s_l%d.bin' % (prefix, lmax)) if names else None
+    if names:
+        print('\n(a), (c) cold against cold: %s level %d, n = %d (reduced m = %d), KKT tol %.0e, '
+              'every solver from x = 0 (projected onto the bounds); load average %s'
+              % (scene, lmax, prob.n, prob.m, args.tol, loadavg()), flush=True)
+        print('  dualsig (%s): cold multigrid %.3f s (%s V-cycles; x = 0 on the geometric hierarchy, '
+              'nested start on the restricted QPs)%s'
+              % (dcmd, float(mg_cold['seconds']), mg_cold['iterations'],
+                 '' if schur_cold is None else '; cold schur %.3f s (%s pivoting steps; the mesh as '
+                 'one level, no hierarchy)' % (float(schur_cold['seconds']), schur_cold['iterations'])))
+        t_mg_cold = float(mg_cold['seconds'])
+        t_schur = float(schur_cold['seconds']) if schur_cold is not None else float('nan')
+        print('  %-14s %9s %9s %5s %7s %10s %9s %9s %8s %12s %12s  %s' %
+              ('PETSc solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'peak_MB',
+               'load', '/mg_cold', '/schur_cold', 'status'), flush=True)
+        for name in names:
+            r = run_one(name, prob, args)
+            la = loadavg().split()[0]
+            ok = r['status'] == 'converged'
+            rm = r['solve_s'] / t_mg_cold
+            rs = r['solve_s'] / t_schur
+            fmt = (lambda v: ('%.1fx' % v) if ok else ('>%.1fx' % v if v == v else '-'))
+            print('  %-14s %9.3f %9.3f %5d %7d %10.2e %9.1e %9.0f %8s %12s %12s  %s' %
+                  (name, r['setup_s'], r['solve_s'], r['iterations'], r['ksp_iterations'], r['kkt'],
+                   r['rel_diff'], r.get('peak_mb', float('nan')), la, fmt(rm), fmt(rs), r['status']),
+                  flush=True)
+            if r['status'] != 'converged':
+                print('    (the parent process held %.0f MB at the fork)' % r['parent_mb'])
+            if 'traceback' in r:
+                sys.stderr.write(r['traceback'])
+            rows_out.append(['cold', scene, lmax, prob.n, name, '%.4f' % r['setup_s'],
+                             '%.4f' % r['solve_s'], r['iterations'], r['ksp_iterations'],
+                             '%.3e' % r['kkt'], '%.0f' % r.get('peak_mb', float('nan')), la,
+                             '%.4f' % t_mg_cold, '%.4f' % t_schur, r['status']])
     del prob
 
     t_seq = float(mg_seq['cumulative_s'])
@@ -833,8 +882,14 @@ def fair_main(args, names, seq_names):
                 sys.stderr.write(r['traceback'])
             if 'x' not in r:
                 status = 'level %d: %s' % (level, r['status'])
+                print('    level %2d  n = %9d  %s (the parent process held %.0f MB)'
+                      % (level, p.n, r['status'], r['parent_mb']), flush=True)
                 break
             x = r['x']
+            print('    level %2d  n = %9d  solve %8.3f s  its %3d  ksp_its %4d  kkt %.2e  '
+                  'peak %6.0f MB (the parent\'s %.0f MB included)'
+                  % (level, p.n, r['solve_s'], r['iterations'], r['ksp_iterations'], r['kkt'],
+                     r.get('peak_mb', float('nan')), r['parent_mb']), flush=True)
             del p
         la = loadavg().split()[0]
         ratio = tot / t_seq
@@ -878,6 +933,8 @@ def main(argv=None):
                     help='fair mode on the binary exports PREFIX_l<level>.bin and '
                          'PREFIX_dualsig.csv of `bin/dualsig_bench peers`')
     ap.add_argument('--level', type=int, default=10, help='fair mode: the finest level')
+    ap.add_argument('--mem-limit-gb', type=float, default=0.0,
+                    help='address-space limit of each solver child in GiB (0: none)')
     ap.add_argument('--seq-solvers', default='snes-vi-hypre,snes-vi-gamg',
                     help='fair mode: the solvers run through the whole grid sequence')
     args = ap.parse_args(argv)
