@@ -223,9 +223,12 @@ fuzz: deps
 	   --out $(FUZZ_OUT) $(FUZZ_OPTIONS)
 
 # ---------------------------------------------------------------- benchmarks
-# make bench        all tables (about 12 minutes, 10 GB: the largest meshes have 1e6 nodes), plots
+# make bench        all tables (about 12 minutes, 10 GB: the largest meshes have 1e6 nodes), plots,
+#                   then the fair PETSc comparison of make bench-peers at 10^6 (about 5 more
+#                   minutes; BENCH_PEERS=0 leaves it out)
 # make bench-quick  the small tables only (primal, dual_p1, dual_p2 sections; about 1 minute)
-# make bench-peers  the same QPs solved by PETSc (python3-petsc4py), if installed
+# make bench-peers  the fair PETSc comparison (python3-petsc4py, installed when root; below)
+BENCH_PEERS ?= 1
 BENCH_PACKAGES := gnuplot-nox
 bench-deps: deps
 	@if ! command -v gnuplot >/dev/null; then \
@@ -238,6 +241,7 @@ bench: bench-deps
 	@$(MAKE) -s bin/dualsig_bench
 	@./bin/dualsig_bench
 	@$(MAKE) -s bench-plots
+	@if [ "$(BENCH_PEERS)" != 0 ]; then $(MAKE) -s bench-peers; fi
 
 bench-quick: bench-deps
 	@$(MAKE) all
@@ -294,16 +298,27 @@ doc-figures:
 	@echo "dualsig: $(DOC_PNGS) copied to doc/"
 
 # PETSc is optional: installed here when possible (python3-petsc4py: about 150 MB with MPI),
-# otherwise the script prints that it is skipped.  Needs the QP exports of `make bench`.
+# otherwise the script prints that it is skipped.  make bench-peers: the fair comparison of
+# issue 16 item 4 in one run (doc/performance.md#petsc-peers): bin/dualsig_bench peers (the
+# multigrid grid sequence to PEER_LEVEL with every level's QP exported to out/peers/, cold
+# multigrid and cold schur on the finest QP), then bench/petsc_peers.py --fair on the same
+# QPs (cold against cold; PETSc's own grid sequencing against dualsig's).  PEER_LEVEL=10:
+# about 10 minutes on 2 cores.  The Matrix Market exports of `make bench` (out/qp_*) are
+# solved by `python3 bench/petsc_peers.py BASE ...` directly.
 PEER_PACKAGES := python3-petsc4py
-PEER_QPS ?= out/qp_p2_contact_l8 out/qp_p1_contact_l8 out/qp_p2_contact_l10
-PEER_OPTIONS ?= --time-limit 400
-bench-peers:
+PEER_LEVEL ?= 10
+PEER_SCENE ?= p2_contact
+PEER_SOLVERS ?= snes-vi-hypre,snes-vi-gamg,snes-vi-chol,tao-tron
+PEER_OPTIONS ?= --time-limit 400 --mem-limit-gb 16
+bench-peers: bench-deps
 	@if ! dpkg-query -W -f='$${Status}' $(PEER_PACKAGES) 2>/dev/null | grep -q "install ok installed"; then \
 	  if [ "$$(id -u)" = 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
 	    $(PEER_PACKAGES) >/dev/null || true; fi; fi
-	@for q in $(PEER_QPS); do [ -f $${q}_A.mtx ] || { echo "dualsig: $${q}_A.mtx missing: run make bench first"; exit 1; }; done
-	@python3 bench/petsc_peers.py $(PEER_QPS) --csv out/bench_peers.csv $(PEER_OPTIONS)
+	@$(MAKE) -s all
+	@$(MAKE) -s bin/dualsig_bench
+	@./bin/dualsig_bench peers $(PEER_LEVEL) $(PEER_SCENE)
+	@python3 bench/petsc_peers.py --fair out/peers/$(PEER_SCENE) --level $(PEER_LEVEL) \
+	  --solvers $(PEER_SOLVERS) --csv out/bench_peers_fair.csv $(PEER_OPTIONS)
 
 bin/dualsig_bench: drivers/dualsig_bench.f90 $(LIBRARY) $(SUPPORT_LIB) | bin
 	$(FC) $(STD_FLAGS) $(FFLAGS) -I$(SUPPORT_MODDIR) -Iinclude $< -o $@ $(SUPPORT_LIB) $(LIBRARY) $(LIBS)

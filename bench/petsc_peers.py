@@ -29,6 +29,30 @@ Usage
                     them; use the solver's prefix, e.g. "-tron_pc_type gamg -vigamg_ksp_rtol 1e-4"
     --list          print the solvers and their PETSc options and exit
 
+Fair mode (issue 16 item 4; what `make bench-peers` runs)
+--------------------------------------------------------
+    bin/dualsig_bench peers L SCENE
+    python3 bench/petsc_peers.py --fair out/peers/SCENE --level L [--solvers a,b,...]
+                                 [--seq-solvers a,b,...] [--mem-limit-gb G] [...]
+
+`bin/dualsig_bench peers` (drivers/support/dualsig_bench_peers.f90) runs dualsig's multigrid
+grid sequence to level L, exports every level's QP in binary (out/peers/SCENE_l<l>.bin: the
+CSR matrix, F, kinds, bounds, dualsig's x and the prolongation from level l-1, format in
+that file's header) and times cold solves of the finest QP from x = 0: 'multigrid' on the
+same hierarchy and 'schur' on the finest mesh given as one level; the times go to
+out/peers/SCENE_dualsig.csv.  The fair mode then, right after it on the same machine:
+  (a), (c) cold against cold: each of --solvers on the level-L QP from x = 0 (projected onto
+      the bounds), ratios to dualsig's cold multigrid and cold schur;
+  (b), (c) the whole grid sequence: each of --seq-solvers (default snes-vi-hypre,
+      snes-vi-gamg) solves levels 1..L in turn, level l from the P1 interpolation of its own
+      level l-1 solution (dualsig's prolongation, read from the export; fixed values and
+      lower bounds imposed), to the same KKT tolerance on every level; the sum of the solve
+      phases against dualsig's whole sequence.
+--mem-limit-gb limits each solver child's address space (RLIMIT_AS, the parent's shared
+pages included): a problem PETSc cannot hold ends in an out-of-memory abort (reported)
+instead of pressing a shared machine.  Rows are appended to --csv (make bench-peers:
+out/bench_peers_fair.csv) with the load average at the end of each run.
+
 If petsc4py cannot be imported the script prints one line
 "petsc_peers: PETSc (python3-petsc4py) not installed; skipped" and exits with status 0.
 
@@ -270,12 +294,16 @@ class Problem:
         import numpy as np
         t0 = time.perf_counter()
         self.base = base
-        n, rows, cols, vals = read_mm_coo(base + '_A.mtx')
+        self.ends = None
+        if base.endswith('.bin'):
+            n, rows, cols, vals = self._read_binary(base)
+        else:
+            n, rows, cols, vals = read_mm_coo(base + '_A.mtx')
+            self.F = read_mm_array(base + '_F.mtx')
+            self.kind = read_mm_array(base + '_kind.mtx').astype(np.int64)
+            self.bnd = read_mm_array(base + '_bnd.mtx')
+            self.xref = read_mm_array(base + '_x.mtx')
         self.n = n
-        self.F = read_mm_array(base + '_F.mtx')
-        self.kind = read_mm_array(base + '_kind.mtx').astype(np.int64)
-        self.bnd = read_mm_array(base + '_bnd.mtx')
-        self.xref = read_mm_array(base + '_x.mtx')
         for name, v in (('F', self.F), ('kind', self.kind), ('bnd', self.bnd), ('x', self.xref)):
             if v.size != n:
                 raise ValueError('%s_%s.mtx: size %d, A has %d' % (base, name, v.size, n))
@@ -326,6 +354,43 @@ class Problem:
         self.t_reduce = time.perf_counter() - t0
         self.ref_kkt = self.kkt_full(self.xref)
         self.ref_scale = float(np.max(np.abs(self.xref))) if n else 0.0
+
+    def _read_binary(self, path):
+        """The binary export of `bin/dualsig_bench peers` (drivers/support/dualsig_bench_peers.f90):
+        'DSQP0001', n, nnz, ne (int32), rowptr(n+1), col(nnz) (int32, 1-based), val(nnz),
+        F, bnd, x (float64), kind(n), ends(2, ne) (int32, 1-based)."""
+        import numpy as np
+        with open(path, 'rb') as fh:
+            if fh.read(8) != b'DSQP0001':
+                raise ValueError('%s: not a dualsig binary QP' % path)
+            n, nnz, ne = (int(v) for v in np.fromfile(fh, dtype='<i4', count=3))
+            rowptr = np.fromfile(fh, dtype='<i4', count=n + 1).astype(np.int64) - 1
+            cols = np.fromfile(fh, dtype='<i4', count=nnz) - 1     # int32: half the memory
+            vals = np.fromfile(fh, dtype='<f8', count=nnz)
+            self.F = np.fromfile(fh, dtype='<f8', count=n)
+            self.bnd = np.fromfile(fh, dtype='<f8', count=n)
+            self.xref = np.fromfile(fh, dtype='<f8', count=n)
+            self.kind = np.fromfile(fh, dtype='<i4', count=n).astype(np.int64)
+            ends = np.fromfile(fh, dtype='<i4', count=2 * ne)
+        if ends.size != 2 * ne or vals.size != nnz:
+            raise ValueError('%s: truncated file' % path)
+        self.ends = ends.reshape(ne, 2).astype(np.int64) - 1
+        rows = np.repeat(np.arange(n, dtype=np.int32), np.diff(rowptr))
+        return n, rows, cols, vals
+
+    def prolong(self, xc):
+        """P1 interpolation of the previous level's x onto this level (coarse nodes first,
+        then the edge midpoints), with the fixed values and the lower bounds imposed."""
+        import numpy as np
+        nc = self.n - self.ends.shape[0]
+        x = np.empty(self.n)
+        x[:nc] = xc
+        x[nc:] = 0.5 * (xc[self.ends[:, 0]] + xc[self.ends[:, 1]])
+        fixed = self.kind == 2
+        x[fixed] = self.bnd[fixed]
+        low = self.kind == 1
+        x[low] = np.maximum(x[low], self.bnd[low])
+        return x
 
     def kkt_reduced(self, y, Ay):
         """Relative KKT residual from reduced y and A_rr y (numpy arrays)."""
@@ -454,12 +519,20 @@ def wrap_gamg(PETSc, ksp, prefix, opts):
     return True
 
 
-def run_solver(name, prob, tol, time_limit, user_opts, conn):
-    """Runs in a forked child: set up and solve with one PETSc solver, send a result dict."""
+def run_solver(name, prob, tol, time_limit, user_opts, conn, y0=None, want_x=False,
+               mem_limit_gb=0.0):
+    """Runs in a forked child: set up and solve with one PETSc solver, send a result dict.
+    mem_limit_gb > 0: the child's address space is limited to that (RLIMIT_AS, including
+    the parent's pages it shares), so that a problem PETSc cannot hold ends in an
+    out-of-memory error instead of pressing the shared machine."""
     res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
            'iterations': -1, 'ksp_iterations': -1, 'kkt': float('nan'),
            'rel_diff': float('nan'), 'status': 'error'}
     try:
+        if mem_limit_gb > 0:
+            import resource
+            lim = int(mem_limit_gb * 2 ** 30)
+            resource.setrlimit(resource.RLIMIT_AS, (lim, lim))
         import numpy as np
         import petsc4py
         petsc4py.init([sys.argv[0]])
@@ -492,8 +565,11 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
         xla[prob.bidx] = prob.lb
         xl.setArray(xla)
         x = A.createVecRight()
-        x0 = np.zeros(m)
-        x0[prob.bidx] = np.maximum(0.0, prob.lb)
+        if y0 is None:                       # cold: zero projected onto the bounds
+            x0 = np.zeros(m)
+            x0[prob.bidx] = np.maximum(0.0, prob.lb)
+        else:                                # warm: the given start (reduced numbering)
+            x0 = np.array(y0, dtype=float)
         x.setArray(x0)
         work = A.createVecRight()
 
@@ -617,6 +693,8 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
 
         y = xsol.getArray(readonly=True).copy()
         xfull = prob.full_x(y)
+        if want_x:
+            res['x'] = xfull
         res['kkt'] = prob.kkt_full(xfull)
         res['rel_diff'] = prob.rel_diff(xfull)
         if res['kkt'] <= tol:
@@ -630,6 +708,11 @@ def run_solver(name, prob, tol, time_limit, user_opts, conn):
     except Exception as e:                        # report, never hang the parent
         res['status'] = 'error: %s' % (str(e).strip().splitlines() or [type(e).__name__])[0]
         res['traceback'] = traceback.format_exc()
+    try:
+        import resource
+        res['peak_mb'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    except Exception:                             # not on this platform
+        res['peak_mb'] = float('nan')
     try:
         conn.send(res)
     finally:
@@ -645,12 +728,16 @@ def _reason_name(enum, value):
 
 # --------------------------------------------------------------------------- parent
 
-def run_one(name, prob, args):
-    """Run one solver in a forked child with a hard timeout."""
+def run_one(name, prob, args, y0=None, want_x=False):
+    """Run one solver in a forked child with a hard timeout (start y0: reduced numbering,
+    None = cold; want_x: the result carries the full solution as 'x')."""
     ctx = mp.get_context('fork')
+    parent_mb = rss_mb()
     rd, wr = ctx.Pipe(duplex=False)
     p = ctx.Process(target=run_solver,
-                    args=(name, prob, args.tol, args.time_limit, args.petsc_options, wr))
+                    args=(name, prob, args.tol, args.time_limit, args.petsc_options, wr),
+                    kwargs={'y0': y0, 'want_x': want_x,
+                            'mem_limit_gb': getattr(args, 'mem_limit_gb', 0.0)})
     p.start()
     wr.close()
     hard = 1.25 * args.time_limit + 30.0
@@ -666,12 +753,24 @@ def run_one(name, prob, args):
             status = 'killed (hard timeout)'
         else:
             status = 'error: child exited with code %s' % p.exitcode
+            if getattr(args, 'mem_limit_gb', 0.0) > 0:
+                status += ' (PETSc aborted; out of memory within --mem-limit-gb %g?)' % args.mem_limit_gb
         res = {'solver': name, 'setup_s': float('nan'), 'solve_s': float('nan'),
                'iterations': -1, 'ksp_iterations': -1, 'kkt': float('nan'),
                'rel_diff': float('nan'), 'status': status}
     p.join(10)
     rd.close()
+    res['parent_mb'] = parent_mb
     return res
+
+
+def rss_mb():
+    """Resident memory of this process in MB (0 when /proc is not there)."""
+    try:
+        with open('/proc/self/statm') as fh:
+            return int(fh.read().split()[1]) * os.sysconf('SC_PAGE_SIZE') / 2.0 ** 20
+    except (OSError, ValueError, IndexError):
+        return 0.0
 
 
 def fmt_row(cols, widths):
@@ -680,6 +779,144 @@ def fmt_row(cols, widths):
     out += [str(c).rjust(w) for c, w in zip(cols[1:-1], widths[1:-1])]
     out.append(str(cols[-1]))
     return '  '.join(out)
+
+
+# --------------------------------------------------------------------------- fair mode
+
+def read_dualsig_csv(path):
+    """Rows of out/peers/<scene>_dualsig.csv by (pass, level)."""
+    out = {}
+    with open(path, newline='') as fh:
+        for r in csv.DictReader(fh):
+            out[(r['pass'], int(r['level']))] = r
+    return out
+
+
+def loadavg():
+    try:
+        return '%.2f %.2f %.2f' % os.getloadavg()
+    except OSError:
+        return '?'
+
+
+def fair_main(args, names, seq_names):
+    """Issue 16 item 4: (a) cold against cold on the finest exported QP, (b) the whole grid
+    sequence against PETSc's own grid sequencing on the same exported QPs, (c) multigrid
+    against VINEWTONRSLS + BoomerAMG / GAMG (part of (a) and (b)); ratios within this run."""
+    prefix, lmax = args.fair, args.level
+    scene = os.path.basename(prefix)
+    dcsv = prefix + '_dualsig.csv'
+    if not os.path.exists(dcsv):
+        print('petsc_peers: %s missing: run bin/dualsig_bench peers %d %s first' % (dcsv, lmax, scene))
+        return 1
+    ds = read_dualsig_csv(dcsv)
+    dcmd = 'bin/dualsig_bench peers %d %s' % (lmax, scene)
+    pcmd = 'python3 bench/petsc_peers.py --fair %s --level %d' % (prefix, lmax)
+    rows_out = []
+    mg_seq = ds.get(('sequence', lmax))
+    mg_cold = ds.get(('cold_multigrid', lmax))
+    schur_cold = ds.get(('cold_schur', lmax))
+    if mg_seq is None or mg_cold is None:
+        print('petsc_peers: %s has no level %d rows' % (dcsv, lmax))
+        return 1
+
+    prob = Problem('%s_l%d.bin' % (prefix, lmax)) if names else None
+    if names:
+        print('\n(a), (c) cold against cold: %s level %d, n = %d (reduced m = %d), KKT tol %.0e, '
+              'every solver from x = 0 (projected onto the bounds); load average %s'
+              % (scene, lmax, prob.n, prob.m, args.tol, loadavg()), flush=True)
+        print('  dualsig (%s): cold multigrid %.3f s (%s V-cycles; x = 0 on the geometric hierarchy, '
+              'nested start on the restricted QPs)%s'
+              % (dcmd, float(mg_cold['seconds']), mg_cold['iterations'],
+                 '' if schur_cold is None else '; cold schur %.3f s (%s pivoting steps; the mesh as '
+                 'one level, no hierarchy)' % (float(schur_cold['seconds']), schur_cold['iterations'])))
+        t_mg_cold = float(mg_cold['seconds'])
+        t_schur = float(schur_cold['seconds']) if schur_cold is not None else float('nan')
+        print('  %-14s %9s %9s %5s %7s %10s %9s %9s %8s %12s %12s  %s' %
+              ('PETSc solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'peak_MB',
+               'load', '/mg_cold', '/schur_cold', 'status'), flush=True)
+        for name in names:
+            r = run_one(name, prob, args)
+            la = loadavg().split()[0]
+            ok = r['status'] == 'converged'
+            rm = r['solve_s'] / t_mg_cold
+            rs = r['solve_s'] / t_schur
+            fmt = (lambda v: ('%.1fx' % v) if ok else ('>%.1fx' % v if v == v else '-'))
+            print('  %-14s %9.3f %9.3f %5d %7d %10.2e %9.1e %9.0f %8s %12s %12s  %s' %
+                  (name, r['setup_s'], r['solve_s'], r['iterations'], r['ksp_iterations'], r['kkt'],
+                   r['rel_diff'], r.get('peak_mb', float('nan')), la, fmt(rm), fmt(rs), r['status']),
+                  flush=True)
+            if r['status'] != 'converged':
+                print('    (the parent process held %.0f MB at the fork)' % r['parent_mb'])
+            if 'traceback' in r:
+                sys.stderr.write(r['traceback'])
+            rows_out.append(['cold', scene, lmax, prob.n, name, '%.4f' % r['setup_s'],
+                             '%.4f' % r['solve_s'], r['iterations'], r['ksp_iterations'],
+                             '%.3e' % r['kkt'], '%.0f' % r.get('peak_mb', float('nan')), la,
+                             '%.4f' % t_mg_cold, '%.4f' % t_schur, r['status']])
+    del prob
+
+    t_seq = float(mg_seq['cumulative_s'])
+    print('\n(b), (c) the whole grid sequence, levels 1..%d of %s, KKT tol %.0e on every level; '
+          'PETSc solves level l from the P1 interpolation of its level l-1 solution (its own grid '
+          'sequencing, level 1 from x = 0); load average %s'
+          % (lmax, scene, args.tol, loadavg()), flush=True)
+    print('  dualsig (%s): multigrid grid sequence %.3f s in all (level %d: %.3f s, %s V-cycles)'
+          % (dcmd, t_seq, lmax, float(mg_seq['seconds']), mg_seq['iterations']))
+    print('  %-14s %11s %11s %9s %9s %10s %9s %8s %12s  %s' %
+          ('PETSc solver', 'sum solve_s', 'sum setup_s', 'its(L)', 'its(all)', 'kkt(L)',
+           'peak_MB', 'load', '/dualsig', 'status'), flush=True)
+    for name in seq_names:
+        tot, tot_setup, its_all, peak, status, x, r = 0.0, 0.0, 0, 0.0, 'converged', None, None
+        for level in range(1, lmax + 1):
+            p = Problem('%s_l%d.bin' % (prefix, level))
+            y0 = None if x is None else p.prolong(x)[p.keep_idx]
+            r = run_one(name, p, args, y0=y0, want_x=True)
+            tot += r['solve_s']
+            tot_setup += r['setup_s']
+            its_all += max(r['iterations'], 0)
+            peak = max(peak, r.get('peak_mb', 0.0) or 0.0)
+            if r['status'] != 'converged':
+                status = 'level %d: %s' % (level, r['status'])
+            if 'traceback' in r:
+                sys.stderr.write(r['traceback'])
+            if 'x' not in r:
+                status = 'level %d: %s' % (level, r['status'])
+                print('    level %2d  n = %9d  %s (the parent process held %.0f MB)'
+                      % (level, p.n, r['status'], r['parent_mb']), flush=True)
+                break
+            x = r['x']
+            print('    level %2d  n = %9d  solve %8.3f s  its %3d  ksp_its %4d  kkt %.2e  '
+                  'peak %6.0f MB (the parent\'s %.0f MB included)'
+                  % (level, p.n, r['solve_s'], r['iterations'], r['ksp_iterations'], r['kkt'],
+                     r.get('peak_mb', float('nan')), r['parent_mb']), flush=True)
+            del p
+        la = loadavg().split()[0]
+        ratio = tot / t_seq
+        print('  %-14s %11.3f %11.3f %9d %9d %10.2e %9.0f %8s %12s  %s' %
+              (name, tot, tot_setup, r['iterations'], its_all, r['kkt'], peak, la,
+               ('%.1fx' % ratio) if status == 'converged' else '-', status), flush=True)
+        rows_out.append(['sequence', scene, lmax, '', name, '%.4f' % tot_setup, '%.4f' % tot,
+                         r['iterations'], its_all, '%.3e' % r['kkt'], '%.0f' % peak, la,
+                         '%.4f' % t_seq, '', status])
+    print('\n  commands: make bench-peers PEER_LEVEL=%d PEER_SCENE=%s, i.e. %s && %s '
+          '(solve_s: the solve phase; setup_s: PETSc Mat/Vec/solver creation from the CSR '
+          'arrays, the analogue of dualsig\'s assembly, which is not timed either)'
+          % (lmax, scene, dcmd, pcmd))
+    if args.csv:
+        d = os.path.dirname(args.csv)
+        if d:
+            os.makedirs(d, exist_ok=True)
+        new = not os.path.exists(args.csv) or os.path.getsize(args.csv) == 0
+        with open(args.csv, 'a', newline='') as fh:
+            w = csv.writer(fh)
+            if new:
+                w.writerow(['comparison', 'scene', 'level', 'n', 'solver', 'setup_s', 'solve_s',
+                            'iterations', 'ksp_or_all_iterations', 'kkt', 'peak_mb', 'load1',
+                            'dualsig_s', 'dualsig_schur_cold_s', 'status'])
+            w.writerows(rows_out)
+        print('petsc_peers: %d row(s) appended to %s' % (len(rows_out), args.csv))
+    return 0
 
 
 def main(argv=None):
@@ -692,6 +929,14 @@ def main(argv=None):
     ap.add_argument('--solvers', default=','.join(SOLVERS))
     ap.add_argument('--petsc-options', default='')
     ap.add_argument('--list', action='store_true')
+    ap.add_argument('--fair', metavar='PREFIX', default='',
+                    help='fair mode on the binary exports PREFIX_l<level>.bin and '
+                         'PREFIX_dualsig.csv of `bin/dualsig_bench peers`')
+    ap.add_argument('--level', type=int, default=10, help='fair mode: the finest level')
+    ap.add_argument('--mem-limit-gb', type=float, default=0.0,
+                    help='address-space limit of each solver child in GiB (0: none)')
+    ap.add_argument('--seq-solvers', default='snes-vi-hypre,snes-vi-gamg',
+                    help='fair mode: the solvers run through the whole grid sequence')
     args = ap.parse_args(argv)
 
     names = [s.strip() for s in args.solvers.split(',') if s.strip()]
@@ -702,8 +947,12 @@ def main(argv=None):
         for s in SOLVERS:
             print('%-13s %-5s %-13s %s' % (s, SOLVERS[s][0], SOLVERS[s][1], default_options(s)))
         return 0
-    if not args.bases:
-        ap.error('at least one BASE is required')
+    seq_names = [s.strip() for s in args.seq_solvers.split(',') if s.strip()]
+    bad = [s for s in seq_names if s not in SOLVERS]
+    if bad:
+        ap.error('unknown solver(s) %s; known: %s' % (', '.join(bad), ', '.join(SOLVERS)))
+    if not args.bases and not args.fair:
+        ap.error('at least one BASE (or --fair PREFIX) is required')
 
     if not ensure_petsc4py():
         print(SKIP_LINE)
@@ -711,6 +960,8 @@ def main(argv=None):
     # Open MPI: let each child's MPI_Init run as an isolated singleton instead of spawning
     # an orted helper process per solver run
     os.environ.setdefault('OMPI_MCA_ess_singleton_isolated', '1')
+    if args.fair:
+        return fair_main(args, names, seq_names)
 
     widths = [13, 8, 8, 8, 8, 10, 10, 0]
     head = ['solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'status']

@@ -20,6 +20,9 @@
 !> `bin/dualsig_bench multigrid [lmax [lmax_base [scene]]]` runs only the multigrid section
 !> (dualsig_bench_multigrid: TNNMG per level to lmax = 12 by default, baselines to 10,
 !> scene p2_contact); the whole run ends with it.
+!> `bin/dualsig_bench peers [lmax [scene]]` (dualsig_bench_peers, run by `make bench-peers`)
+!> runs the dualsig side of the PETSc comparison: the multigrid grid sequence to lmax = 10 with
+!> every level's QP exported to out/peers/, then cold solves of the finest QP.
 !> Writes the tables to standard output and to out/bench_primal.csv, out/bench_dual_p1.csv,
 !> out/bench_dual_p2.csv.
 program dualsig_bench
@@ -57,6 +60,7 @@ program dualsig_bench
                               analysis_start, analysis_next_level
   use dualsig_status, only: is_ok
   use dualsig_bench_multigrid, only: bench_multigrid, dirichlet_decoupled
+  use dualsig_bench_peers, only: bench_peers
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -101,6 +105,10 @@ program dualsig_bench
     end if
     if (sections(1) == 'multigrid') then
       call multigrid_section()
+      stop
+    end if
+    if (sections(1) == 'peers') then
+      call peers_section()
       stop
     end if
   end if
@@ -173,6 +181,17 @@ contains
     arg = name
     call bench_multigrid(lmax, lbase, trim(arg))
   end subroutine multigrid_section
+
+  !> `peers [lmax [scene]]`: the dualsig side of the PETSc comparison (make bench-peers).
+  subroutine peers_section()
+    integer :: lmax, ios
+    character(len=32) :: name
+    lmax = 10
+    name = 'p2_contact'
+    if (nsections >= 2) read (sections(2), *, iostat=ios) lmax
+    if (nsections >= 3) name = sections(3)
+    call bench_peers(lmax, trim(name))
+  end subroutine peers_section
 
   !> Sections to run: the command-line arguments (primal, dual_p1, dual_p2, large, or
   !> large_p1 / large_p2 for one scene of `large`), all without arguments; `cold [level]`
