@@ -383,6 +383,12 @@ contains
     res%refine_seconds = wall_seconds() - t0
     call solve_level(an, res, st)
     call finish_level(an, res, t0)
+    ! the last level, or a failed one: the factorisations the hierarchies keep (CHOLMOD
+    ! memory, outside Fortran's) are released; analysis_free releases them otherwise
+    if (an%level >= an%settings%levels .or. .not. is_ok(st)) then
+      call mg_clear(an%mg)
+      call dual_hdiv_nested_free(an%nest)
+    end if
   end subroutine analysis_next_level
 
   !> One step of the adaptive loop solve -> estimate -> mark -> refine: the coarse mesh on
