@@ -89,6 +89,7 @@ contains
     integer :: level
     real(dp) :: peak, solver_b
     set%levels = lmax
+    set%keep_hierarchy = .true.      ! an%mg is read after each level, the last one too
     set%method = 'multigrid'
     set%tol = tol
     set%dual = .false.
@@ -136,6 +137,7 @@ contains
     integer :: level
     if (lmax < first_level_base) return
     set%levels = lmax
+    set%keep_hierarchy = .true.      ! an%mg is read after each level, the last one too
     set%method = 'multigrid'
     set%tol = tol
     set%dual = .false.

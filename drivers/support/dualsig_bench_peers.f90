@@ -79,6 +79,7 @@ contains
     end if
     write (csv, '(a)') 'scene,pass,level,n,seconds,cumulative_s,iterations,kkt_residual,peak_mb'
     set%levels = lmax
+    set%keep_hierarchy = .true.      ! the QP exports and the cold solve use an%mg after the last level
     set%method = 'multigrid'
     set%tol = tol
     set%dual = .false.

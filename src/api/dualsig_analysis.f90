@@ -153,6 +153,9 @@ module dualsig_analysis
     integer :: ordering = ORDERING_AMD            !! every CHOLMOD factorisation (ORDERING_* of dualsig_sparse_direct)
     logical :: dual = .true.                      !! dual analysis
     logical :: bounds = .true.                    !! with dual: the bounds from the dual field (off: the field only)
+    !> keep the multigrid hierarchy (an%mg, with its coarsest factor) and the nested dual's state
+    !> after the last level, for a caller that uses them (then analysis_free releases them)
+    logical :: keep_hierarchy = .false.
     !> P1: active_set | uzawa | nested (hdiv, from level 2 on); P2: augmented | uzawa; default: P1 nested
     !> (hdiv) or active_set (paper), P2 augmented
     character(len=16) :: dual_method = 'default'
@@ -385,7 +388,7 @@ contains
     call finish_level(an, res, t0)
     ! the last level, or a failed one: the factorisations the hierarchies keep (CHOLMOD
     ! memory, outside Fortran's) are released; analysis_free releases them otherwise
-    if (an%level >= an%settings%levels .or. .not. is_ok(st)) then
+    if ((an%level >= an%settings%levels .and. .not. an%settings%keep_hierarchy) .or. .not. is_ok(st)) then
       call mg_clear(an%mg)
       call dual_hdiv_nested_free(an%nest)
     end if
