@@ -19,7 +19,9 @@
 !> 'schur' and 'active_set' solves of both scenes at one level (10 by default).
 !> `bin/dualsig_bench multigrid [lmax [lmax_base [scene]]]` runs only the multigrid section
 !> (dualsig_bench_multigrid: TNNMG per level to lmax = 12 by default, baselines to 10,
-!> scene p2_contact); the whole run ends with it.
+!> scene p2_contact); the whole run ends with it and the duals section.
+!> `bin/dualsig_bench duals [lmax [scene]]` (dualsig_bench_duals) runs only the duals against
+!> the primal solve of the same mesh, pipeline defaults, levels to 9 (both scenes by default).
 !> `bin/dualsig_bench peers [lmax [scene]]` (dualsig_bench_peers, run by `make bench-peers`)
 !> runs the dualsig side of the PETSc comparison: the multigrid grid sequence to lmax = 10 with
 !> every level's QP exported to out/peers/, then cold solves of the finest QP.
@@ -61,6 +63,7 @@ program dualsig_bench
   use dualsig_status, only: is_ok
   use dualsig_bench_multigrid, only: bench_multigrid, dirichlet_decoupled
   use dualsig_bench_peers, only: bench_peers
+  use dualsig_bench_duals, only: bench_duals
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -82,6 +85,7 @@ program dualsig_bench
   integer, parameter :: max_level_p2_uzawa = 3     !! plain Uzawa on (4.8): ~16x more iterations per level
   integer, parameter :: max_level_mg = 12          !! multigrid: 4097^2 nodes, 1.68e7 unknowns
   integer, parameter :: max_level_mg_base = 10     !! multigrid: the CHOLMOD baselines to this level
+  integer, parameter :: max_level_duals = 9        !! duals: 2.6e5 primal unknowns (P2 dual about 10 s)
 
   type(scene_t) :: scene
   type(status_t) :: st
@@ -109,6 +113,10 @@ program dualsig_bench
     end if
     if (sections(1) == 'peers') then
       call peers_section()
+      stop
+    end if
+    if (sections(1) == 'duals') then
+      call duals_section()
       stop
     end if
   end if
@@ -164,7 +172,11 @@ program dualsig_bench
   write (*, '(a)') 'dualsig_bench: table written to out/bench_primal.csv'
   if (run_section('dual_p1')) call bench_dual_p1()
   if (run_section('dual_p2')) call bench_dual_p2()
-  if (nsections == 0) call bench_multigrid(max_level_mg, max_level_mg_base, 'p2_contact')
+  if (nsections == 0) then
+    call bench_multigrid(max_level_mg, max_level_mg_base, 'p2_contact')
+    call bench_duals(max_level_duals, 'p1_contact')
+    call bench_duals(max_level_duals, 'p2_contact')
+  end if
 
 contains
 
@@ -181,6 +193,20 @@ contains
     arg = name
     call bench_multigrid(lmax, lbase, trim(arg))
   end subroutine multigrid_section
+
+  !> `duals [lmax [scene]]`: the cost of the duals against the primal solve (both scenes
+  !> without a scene).
+  subroutine duals_section()
+    integer :: lmax, ios
+    lmax = max_level_duals
+    if (nsections >= 2) read (sections(2), *, iostat=ios) lmax
+    if (nsections >= 3) then
+      call bench_duals(lmax, trim(sections(3)))
+    else
+      call bench_duals(lmax, 'p1_contact')
+      call bench_duals(lmax, 'p2_contact')
+    end if
+  end subroutine duals_section
 
   !> `peers [lmax [scene]]`: the dualsig side of the PETSc comparison (make bench-peers).
   subroutine peers_section()
