@@ -236,7 +236,7 @@ module dualsig_analysis
 
   !> The state of an analysis between levels.
   type :: analysis_t
-    type(analysis_problem_t) :: problem
+    type(analysis_problem_t) :: problem     !! the problem (its coarse mesh moved to mesh at analysis_start)
     type(analysis_settings_t) :: settings
     type(mesh_t) :: mesh                    !! the mesh of the current level
     integer :: level = 0                    !! levels done
@@ -331,7 +331,8 @@ contains
     an%problem = problem
     an%settings = settings
     an%dual_method = method
-    an%mesh = problem%mesh
+    ! the levels' mesh: the copy of the coarse mesh moved out of an%problem (one copy, not two)
+    call mesh_move(an%problem%mesh, an%mesh)
     ! (a mesh whose adjacency a primal-only run released: rebuilt for the geometry checks)
     if (allocated(an%mesh%edge_nodes)) call mesh_ensure_adjacency(an%mesh, st)
     if (.not. is_ok(st)) return
