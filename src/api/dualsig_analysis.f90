@@ -23,7 +23,8 @@ module dualsig_analysis
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_kinds, only: geom_rel_tol
-  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_triangle_area
+  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_triangle_area, mesh_move, mesh_release_adjacency, &
+                          mesh_ensure_adjacency
   use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_mesh_adapt, only: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler
@@ -238,7 +239,7 @@ module dualsig_analysis
 
   !> The state of an analysis between levels.
   type :: analysis_t
-    type(analysis_problem_t) :: problem
+    type(analysis_problem_t) :: problem     !! the problem (its coarse mesh moved to mesh at analysis_start)
     type(analysis_settings_t) :: settings
     type(mesh_t) :: mesh                    !! the mesh of the current level
     integer :: level = 0                    !! levels done
@@ -333,7 +334,11 @@ contains
     an%problem = problem
     an%settings = settings
     an%dual_method = method
-    an%mesh = problem%mesh
+    ! the levels' mesh: the copy of the coarse mesh moved out of an%problem (one copy, not two)
+    call mesh_move(an%problem%mesh, an%mesh)
+    ! (a mesh whose adjacency a primal-only run released: rebuilt for the geometry checks)
+    if (allocated(an%mesh%edge_nodes)) call mesh_ensure_adjacency(an%mesh, st)
+    if (.not. is_ok(st)) return
     an%level = 0
     an%load_rule = tri_rule(load_degree)
     an%t_start = wall_seconds()
@@ -358,7 +363,8 @@ contains
     t0 = wall_seconds()
     if (an%level > 0) then
       call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
-      call mesh_refine_uniform(an%mesh, finer, st)
+      if (allocated(an%mesh%edge_nodes)) call mesh_ensure_adjacency(an%mesh, st)
+      if (is_ok(st)) call mesh_refine_uniform(an%mesh, finer, st)
       if (.not. is_ok(st)) return
       if (an%mg%nlevel > 0) call mg_add_level(an%mg, an%mesh%nnode, an%mesh%edge_nodes, st)
       if (.not. is_ok(st)) return
@@ -371,7 +377,7 @@ contains
         call prolongate_q_hdiv(an, finer, st)
         if (.not. is_ok(st)) return
       end if
-      call move_mesh(finer, an%mesh)
+      call mesh_move(finer, an%mesh)
       call phase_event(an, an%level + 1, 'refine', .true., wall_seconds() - t0)
     else if (allocated(an%u_start)) then
       u_next = an%u_start
@@ -444,14 +450,15 @@ contains
         'area floor of double precision)')
       return
     end if
-    call mesh_refine_marked(an%mesh, marked, finer, parents, st)
+    call mesh_ensure_adjacency(an%mesh, st)
+    if (is_ok(st)) call mesh_refine_marked(an%mesh, marked, finer, parents, st)
     if (.not. is_ok(st)) return
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
     allocate (u_next(finer%nnode), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
     call mesh_prolongate_bisection(parents, an%u, u_next)
-    call move_mesh(finer, an%mesh)
+    call mesh_move(finer, an%mesh)
     call move_alloc(u_next, an%u)
     an%level = an%level + 1
     res%level = an%level
@@ -549,14 +556,6 @@ contains
     an%prolong_seconds = wall_seconds() - an%prolong_seconds
   end subroutine prolongate_q_hdiv
 
-  !> mesh_to = mesh_from (the refinement replaces the level's mesh).
-  subroutine move_mesh(mesh_from, mesh_to)
-    type(mesh_t), intent(inout) :: mesh_from
-    type(mesh_t), intent(inout) :: mesh_to
-    mesh_to = mesh_from
-    mesh_from = mesh_t()
-  end subroutine move_mesh
-
   !> One level on an%mesh from the start an%u: the geometry checks (mesh_check_geometry),
   !> assemble, constraints, primal solve, exact errors, dual solve and bounds.
   subroutine solve_level(an, res, st)
@@ -578,6 +577,12 @@ contains
         return
       end if
       res%h = mesh_h(mesh)
+      ! the last level of a primal-only run needs no adjacency (edge_tri, tri_edge and the
+      ! boundary links of the nodes): released before the matrix and the solver take their
+      ! memory (analysis_start, analysis_next_level and analysis_next_step rebuild it when a
+      ! caller goes on from this mesh)
+      if (an%level >= an%settings%levels .and. .not. an%settings%dual .and. .not. an%settings%adapt%enabled) &
+        call mesh_release_adjacency(mesh)
       call primal_assemble(mesh, pb%kind, pb%f, an%load_rule, sys, st)
       if (.not. is_ok(st)) return
       if (.not. all(ieee_is_finite(sys%load))) then

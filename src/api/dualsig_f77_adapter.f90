@@ -12,7 +12,7 @@ module dualsig_f77_adapter
   use dualsig_status, only: status_t, is_ok, DS_OK
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
-  use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter
+  use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter, mesh_move
   use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
   use dualsig_fields, only: scalar_field, function_field
@@ -620,7 +620,7 @@ contains
     problem%gamma_a = [merge(mark_gamma_a, 0, any(mesh%bedge_marker == mark_gamma_a))]
     allocate (problem%f, source=function_field(fsrc))      ! small: a field object
     if (allocated(breaks)) problem%x_breaks = breaks
-    call move_mesh(mesh, problem%mesh)
+    call mesh_move(mesh, problem%mesh)
     if (.not. opt%start_from_u) u = 0.0_dp
     call analysis_start(an, problem, settings_of(opt, iprob), st, u_start=u)
     if (is_ok(st)) call analysis_next_level(an, res, st)
@@ -645,14 +645,6 @@ contains
     end if
     if (info > 0) call dssign_print(opt, 1, 'DSSIGN: INFO = ' // itoa(info))
   end subroutine dssign_analyse
-
-  !> mesh_to = mesh_from, mesh_from emptied.
-  subroutine move_mesh(mesh_from, mesh_to)
-    type(mesh_t), intent(inout) :: mesh_from
-    type(mesh_t), intent(inout) :: mesh_to
-    mesh_to = mesh_from
-    mesh_from = mesh_t()
-  end subroutine move_mesh
 
   !> True when the allocation status ist is non-zero: then arg = arg_no_memory and msg the
   !> out-of-memory message naming what and its size (dualsig_alloc).

@@ -20,7 +20,9 @@ module dualsig_mesh
   private
 
   public :: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter, mesh_h
+  public :: mesh_move, mesh_release_adjacency, mesh_ensure_adjacency
 
+  !> (mesh_move moves every allocatable component: a new component must be added there too.)
   type :: mesh_t
     integer :: nnode = 0                        !! number of nodes
     integer :: ntri = 0                         !! number of triangles
@@ -40,6 +42,9 @@ module dualsig_mesh
     integer, allocatable :: tri_gen(:)
     ! ---- derived by mesh_build_topology ----
     integer, allocatable :: edge_nodes(:,:)     !! (2, nedge) end nodes, edge_nodes(1,e) < edge_nodes(2,e)
+    !> edge_tri, tri_edge, node_bedge_in and node_bedge_out, the adjacency, may be released
+    !> (mesh_release_adjacency) on a mesh that needs no more than its nodes, triangles, edges
+    !> and boundary edges, and rebuilt by mesh_ensure_adjacency
     integer, allocatable :: edge_tri(:,:)       !! (2, nedge) adjacent triangles; edge_tri(2,e) = 0 on the boundary
     integer, allocatable :: tri_edge(:,:)       !! (3, ntri) global edge of local edge k (vertices k, k+1)
     integer, allocatable :: bedge_edge(:)       !! (nbedge) global edge number of a boundary edge
@@ -58,7 +63,6 @@ module dualsig_mesh
   !> bucket_edge(head(lo) : head(lo) + cnt(lo) - 1), with other end nodes bucket_other.
   type :: edge_table_t
     integer, allocatable :: head(:), cnt(:), bucket_other(:), bucket_edge(:)
-    integer, allocatable :: edge_local(:,:)     !! (2, 3*ntri) local edge number in edge_tri(:, e)
   end type edge_table_t
 
   !> The triangle, listed boundary edge or node an error of mesh_build_topology is about (0: none).
@@ -122,17 +126,16 @@ contains
     type(mesh_t), intent(inout) :: mesh
     type(status_t), intent(out) :: st
     integer, intent(out), optional :: bad_tri, bad_bedge, bad_node
-    type(edge_table_t) :: tab
     type(culprit_t) :: bad
-    integer, allocatable :: bedge_of_edge(:)
+    integer, allocatable :: bedge_of_edge(:), bedge_e(:)
     logical, allocatable :: used(:)
 
     call check_triangles(mesh, st, bad)
-    if (st%code == 0) call build_edges(mesh, tab, st, bad)
+    if (st%code == 0) call build_edges(mesh, bedge_e, st, bad)
     if (st%code == 0) then
       ! every node must be a vertex (an unused node has no basis function support)
       call mark_vertices(mesh, used, st)
-      if (st%code == 0) call match_boundary_edges(mesh, tab, used, bedge_of_edge, st, bad)
+      if (st%code == 0) call match_boundary_edges(mesh, bedge_e, used, bedge_of_edge, st, bad)
     end if
     if (st%code == 0) call check_all_listed(mesh, bedge_of_edge, st, bad)
     if (st%code == 0) call check_nodes_used(mesh, used, st, bad)
@@ -179,50 +182,44 @@ contains
   end subroutine check_triangles
 
   !> Number the edges: bucket the 3*ntri half-edges by their smaller node (counting sort),
-  !> giving edge_nodes, edge_tri, tri_edge and nedge, and the lookup table `tab` (with the
-  !> local edge number of each edge in its triangles).  Rejects repeated vertices and edges
-  !> of more than two triangles.
-  subroutine build_edges(mesh, tab, st, bad)
+  !> numbering each edge where a triangle first has it, giving tri_edge, nedge and
+  !> edge_nodes (sized exactly), then edge_tri (link_edge_triangles); bedge_e(j) is the edge
+  !> of listed boundary edge j (0: none, or bad node indices).  The lookup table is freed
+  !> before edge_tri is allocated (the peak memory of a refinement).  Rejects repeated
+  !> vertices and edges of more than two triangles, the first in triangle order.
+  subroutine build_edges(mesh, bedge_e, st, bad)
     type(mesh_t), intent(inout) :: mesh
-    type(edge_table_t), intent(inout) :: tab
+    integer, allocatable, intent(out) :: bedge_e(:)
     type(status_t), intent(inout) :: st
     type(culprit_t), intent(inout) :: bad
-    integer :: t, k, a, b, lo, hi, e, j, ne, p, ist
+    type(edge_table_t) :: tab
+    integer :: t, k, a, b, lo, hi, e, j, ne, p, q, ist, t_rep, k_rep
     character(len=320) :: buf
 
-    allocate (tab%cnt(mesh%nnode + 1), tab%head(mesh%nnode + 1), stat=ist)
-    if (alloc_failed(ist, st, 'the node table of the edges', 2 * mesh%nnode + 2, BYTES_INT)) return
-    tab%cnt = 0
+    call bucket_heads(mesh%nnode, tab, st)
+    if (st%code /= 0) return
     do t = 1, mesh%ntri
       do k = 1, 3
-        a = mesh%tri(k, t)
-        b = mesh%tri(mod(k, 3) + 1, t)
-        lo = min(a, b)
+        lo = min(mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t))
         tab%cnt(lo + 1) = tab%cnt(lo + 1) + 1
       end do
     end do
-    tab%head(1) = 1
-    do j = 1, mesh%nnode
-      tab%head(j + 1) = tab%head(j) + tab%cnt(j + 1)
-    end do
-    tab%cnt = 0          ! now: number of distinct edges stored in bucket j
-    allocate (tab%bucket_other(3 * mesh%ntri), tab%bucket_edge(3 * mesh%ntri), mesh%tri_edge(3, mesh%ntri), &
-              tab%edge_local(2, 3 * mesh%ntri), mesh%edge_nodes(2, 3 * mesh%ntri), mesh%edge_tri(2, 3 * mesh%ntri), &
-              stat=ist)
-    if (alloc_failed(ist, st, 'the edges of the mesh', 39_i8 * mesh%ntri, BYTES_INT)) return
+    call bucket_fill_heads(mesh%nnode, tab)
+    allocate (tab%bucket_other(3 * mesh%ntri), tab%bucket_edge(3 * mesh%ntri), mesh%tri_edge(3, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the edges of the mesh', 9_i8 * mesh%ntri, BYTES_INT)) return
     ne = 0
-    mesh%edge_tri = 0
-    do t = 1, mesh%ntri
+    t_rep = 0
+    k_rep = 0
+    sides: do t = 1, mesh%ntri
       do k = 1, 3
         a = mesh%tri(k, t)
         b = mesh%tri(mod(k, 3) + 1, t)
         lo = min(a, b)
         hi = max(a, b)
         if (lo == hi) then
-          write (buf, '(a,i0,a)') 'mesh: triangle ', t, ' repeats a vertex'
-          call set_error(st, DS_ERR_MESH, trim(buf))
-          bad%tri = t
-          return
+          t_rep = t
+          k_rep = k
+          exit sides
         end if
         e = find_edge(tab, lo, hi)
         if (e == 0) then
@@ -232,27 +229,186 @@ contains
           tab%cnt(lo) = tab%cnt(lo) + 1
           tab%bucket_other(p) = hi
           tab%bucket_edge(p) = e
-          mesh%edge_nodes(:, e) = [lo, hi]
+        end if
+        mesh%tri_edge(k, t) = e
+      end do
+    end do sides
+    mesh%nedge = ne
+    allocate (mesh%edge_nodes(2, ne), bedge_e(mesh%nbedge), stat=ist)
+    if (alloc_failed(ist, st, 'the edges of the mesh', 2_i8 * ne + mesh%nbedge, BYTES_INT)) return
+    do lo = 1, mesh%nnode
+      do q = tab%head(lo), tab%head(lo) + tab%cnt(lo) - 1
+        mesh%edge_nodes(:, tab%bucket_edge(q)) = [lo, tab%bucket_other(q)]
+      end do
+    end do
+    bedge_e = 0
+    do j = 1, mesh%nbedge
+      a = mesh%bedge_nodes(1, j)
+      b = mesh%bedge_nodes(2, j)
+      if (min(a, b) >= 1 .and. max(a, b) <= mesh%nnode .and. a /= b) bedge_e(j) = find_edge(tab, min(a, b), max(a, b))
+    end do
+    deallocate (tab%head, tab%cnt, tab%bucket_other, tab%bucket_edge)
+    ! an edge of more than two triangles before the repeated vertex is the first error
+    call link_edge_triangles(mesh, t_rep, k_rep, st, bad)
+    if (st%code /= 0 .or. t_rep == 0) return
+    write (buf, '(a,i0,a)') 'mesh: triangle ', t_rep, ' repeats a vertex'
+    call set_error(st, DS_ERR_MESH, trim(buf))
+    bad%tri = t_rep
+  end subroutine build_edges
+
+  !> The node counters of an edge table for n nodes, zeroed (the caller counts the edges of
+  !> node lo in cnt(lo + 1), then calls bucket_fill_heads).
+  subroutine bucket_heads(n, tab, st)
+    integer, intent(in) :: n
+    type(edge_table_t), intent(inout) :: tab
+    type(status_t), intent(inout) :: st
+    integer :: ist
+    allocate (tab%cnt(n + 1), tab%head(n + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the node table of the edges', 2 * n + 2, BYTES_INT)) return
+    tab%cnt = 0
+  end subroutine bucket_heads
+
+  !> The heads of the buckets from the counts cnt(lo + 1); cnt zeroed again (it then counts
+  !> the edges stored in each bucket).
+  subroutine bucket_fill_heads(n, tab)
+    integer, intent(in) :: n
+    type(edge_table_t), intent(inout) :: tab
+    integer :: j
+    tab%head(1) = 1
+    do j = 1, n
+      tab%head(j + 1) = tab%head(j) + tab%cnt(j + 1)
+    end do
+    tab%cnt = 0
+  end subroutine bucket_fill_heads
+
+  !> edge_tri from tri_edge: the triangles of each edge in triangle order, over the sides
+  !> (t, k) before (t_stop, k_stop) (all of them when t_stop = 0).  Rejects an edge of more
+  !> than two triangles.
+  subroutine link_edge_triangles(mesh, t_stop, k_stop, st, bad)
+    type(mesh_t), intent(inout) :: mesh
+    integer, intent(in) :: t_stop, k_stop
+    type(status_t), intent(inout) :: st
+    type(culprit_t), intent(inout) :: bad
+    integer :: t, k, e, ist
+    character(len=320) :: buf
+    allocate (mesh%edge_tri(2, mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the edge-triangle adjacency of the mesh', 2_i8 * mesh%nedge, BYTES_INT)) return
+    mesh%edge_tri = 0
+    do t = 1, mesh%ntri
+      do k = 1, 3
+        if (t == t_stop .and. k == k_stop) return
+        e = mesh%tri_edge(k, t)
+        if (mesh%edge_tri(1, e) == 0) then
           mesh%edge_tri(1, e) = t
-          tab%edge_local(1, e) = k
         else if (mesh%edge_tri(2, e) == 0) then
           mesh%edge_tri(2, e) = t
-          tab%edge_local(2, e) = k
         else
-          write (buf, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') 'mesh: edge (', lo, ',', hi, &
+          write (buf, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') 'mesh: edge (', mesh%edge_nodes(1, e), ',', mesh%edge_nodes(2, e), &
             ') is shared by more than two triangles (triangles ', mesh%edge_tri(1, e), ', ', &
             mesh%edge_tri(2, e), ' and ', t, '; expected at most two: overlapping triangles?)'
           call set_error(st, DS_ERR_MESH, trim(buf))
           bad%tri = t
           return
         end if
+      end do
+    end do
+  end subroutine link_edge_triangles
+
+  !> Release the adjacency edge_tri, tri_edge, node_bedge_in and node_bedge_out (56 of the
+  !> topology's 128 bytes per node on a uniform mesh) of a mesh that needs only its nodes,
+  !> triangles, edges and boundary edges from now on (the last level of a primal-only run);
+  !> mesh_ensure_adjacency rebuilds it.
+  subroutine mesh_release_adjacency(mesh)
+    type(mesh_t), intent(inout) :: mesh
+    if (allocated(mesh%edge_tri)) deallocate (mesh%edge_tri)
+    if (allocated(mesh%tri_edge)) deallocate (mesh%tri_edge)
+    if (allocated(mesh%node_bedge_in)) deallocate (mesh%node_bedge_in)
+    if (allocated(mesh%node_bedge_out)) deallocate (mesh%node_bedge_out)
+  end subroutine mesh_release_adjacency
+
+  !> Rebuild the adjacency (edge_tri, tri_edge, node_bedge_in, node_bedge_out), when
+  !> released, from edge_nodes, tri and bedge_nodes: the same arrays as mesh_build_topology's
+  !> (edges keep their numbers).  A mesh that has them is left alone; one without edges (no
+  !> mesh_build_topology) is an error.
+  subroutine mesh_ensure_adjacency(mesh, st)
+    type(mesh_t), intent(inout) :: mesh
+    type(status_t), intent(inout) :: st
+    type(edge_table_t) :: tab
+    type(culprit_t) :: bad
+    integer :: t, k, e, lo, hi, p, ist
+    if (allocated(mesh%edge_tri) .and. allocated(mesh%tri_edge) .and. allocated(mesh%node_bedge_in) .and. &
+        allocated(mesh%node_bedge_out)) return
+    if (.not. allocated(mesh%edge_nodes)) then
+      call set_error(st, DS_ERR_MESH, 'mesh: no topology (expected a mesh finished by mesh_build_topology)')
+      return
+    end if
+    call mesh_release_adjacency(mesh)
+    call bucket_heads(mesh%nnode, tab, st)
+    if (st%code /= 0) return
+    do e = 1, mesh%nedge
+      lo = mesh%edge_nodes(1, e)
+      tab%cnt(lo + 1) = tab%cnt(lo + 1) + 1
+    end do
+    call bucket_fill_heads(mesh%nnode, tab)
+    allocate (tab%bucket_other(mesh%nedge), tab%bucket_edge(mesh%nedge), mesh%tri_edge(3, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the triangle-edge adjacency of the mesh', 2_i8 * mesh%nedge + 3_i8 * mesh%ntri, &
+                     BYTES_INT)) return
+    do e = 1, mesh%nedge
+      lo = mesh%edge_nodes(1, e)
+      p = tab%head(lo) + tab%cnt(lo)
+      tab%cnt(lo) = tab%cnt(lo) + 1
+      tab%bucket_other(p) = mesh%edge_nodes(2, e)
+      tab%bucket_edge(p) = e
+    end do
+    do t = 1, mesh%ntri
+      do k = 1, 3
+        lo = min(mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t))
+        hi = max(mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t))
+        e = find_edge(tab, lo, hi)
+        if (e == 0) then
+          call set_error(st, DS_ERR_MESH, 'mesh: a side of a triangle is not among the edges (the triangles changed ' // &
+            'since mesh_build_topology?)')
+          call mesh_release_adjacency(mesh)
+          return
+        end if
         mesh%tri_edge(k, t) = e
       end do
     end do
-    mesh%nedge = ne
-    mesh%edge_nodes = mesh%edge_nodes(:, 1:ne)
-    mesh%edge_tri = mesh%edge_tri(:, 1:ne)
-  end subroutine build_edges
+    deallocate (tab%head, tab%cnt, tab%bucket_other, tab%bucket_edge)
+    call link_edge_triangles(mesh, 0, 0, st, bad)
+    if (st%code == 0) call link_boundary_nodes(mesh, st)
+  end subroutine mesh_ensure_adjacency
+
+  !> mesh_to = mesh_from without copying the arrays (moved); mesh_from is left empty.
+  subroutine mesh_move(mesh_from, mesh_to)
+    type(mesh_t), intent(inout) :: mesh_from
+    type(mesh_t), intent(out) :: mesh_to
+    mesh_to%nnode = mesh_from%nnode
+    mesh_to%ntri = mesh_from%ntri
+    mesh_to%nedge = mesh_from%nedge
+    mesh_to%nbedge = mesh_from%nbedge
+    mesh_to%nloop = mesh_from%nloop
+    call move_alloc(mesh_from%xy, mesh_to%xy)
+    call move_alloc(mesh_from%tri, mesh_to%tri)
+    call move_alloc(mesh_from%bedge_nodes, mesh_to%bedge_nodes)
+    call move_alloc(mesh_from%bedge_marker, mesh_to%bedge_marker)
+    call move_alloc(mesh_from%tri_region, mesh_to%tri_region)
+    call move_alloc(mesh_from%tri_gen, mesh_to%tri_gen)
+    call move_alloc(mesh_from%edge_nodes, mesh_to%edge_nodes)
+    call move_alloc(mesh_from%edge_tri, mesh_to%edge_tri)
+    call move_alloc(mesh_from%tri_edge, mesh_to%tri_edge)
+    call move_alloc(mesh_from%bedge_edge, mesh_to%bedge_edge)
+    call move_alloc(mesh_from%bedge_tri, mesh_to%bedge_tri)
+    call move_alloc(mesh_from%bedge_normal, mesh_to%bedge_normal)
+    call move_alloc(mesh_from%bedge_length, mesh_to%bedge_length)
+    call move_alloc(mesh_from%loop_start, mesh_to%loop_start)
+    call move_alloc(mesh_from%loop_bedge, mesh_to%loop_bedge)
+    call move_alloc(mesh_from%node_bedge_in, mesh_to%node_bedge_in)
+    call move_alloc(mesh_from%node_bedge_out, mesh_to%node_bedge_out)
+    call move_alloc(mesh_from%node_on_boundary, mesh_to%node_on_boundary)
+    call move_alloc(mesh_from%node_is_corner, mesh_to%node_is_corner)
+    mesh_from = mesh_t()
+  end subroutine mesh_move
 
   !> used(j): node j is a vertex of some triangle.
   subroutine mark_vertices(mesh, used, st)
@@ -268,13 +424,14 @@ contains
     end do
   end subroutine mark_vertices
 
-  !> Match the listed boundary edges to the topological ones (bedge_of_edge(e): the listed
-  !> edge on edge e, 0 for none), orient them with the domain on their left and compute
+  !> Match the listed boundary edges to the topological ones (bedge_e(j): the edge of listed
+  !> edge j found by build_edges, 0 for none; bedge_of_edge(e): the listed edge on edge e,
+  !> 0 for none), orient them with the domain on their left and compute
   !> bedge_edge, bedge_tri, bedge_length and bedge_normal.  Rejects bad node indices and
   !> markers, listed edges that are no side, interior sides and repeated sides.
-  subroutine match_boundary_edges(mesh, tab, used, bedge_of_edge, st, bad)
+  subroutine match_boundary_edges(mesh, bedge_e, used, bedge_of_edge, st, bad)
     type(mesh_t), intent(inout) :: mesh
-    type(edge_table_t), intent(in) :: tab
+    integer, intent(in) :: bedge_e(:)
     logical, intent(in) :: used(:)
     integer, allocatable, intent(out) :: bedge_of_edge(:)
     type(status_t), intent(inout) :: st
@@ -305,8 +462,7 @@ contains
       end if
       lo = min(a, b)
       hi = max(a, b)
-      e = 0
-      if (lo /= hi) e = find_edge(tab, lo, hi)
+      e = bedge_e(j)
       if (e == 0) then
         if (.not. used(a) .or. .not. used(b)) then
           ! (A3): the end points of Gamma_u / Gamma_a pieces must be vertices of the triangulation
@@ -337,7 +493,7 @@ contains
       end if
       bedge_of_edge(e) = j
       t = mesh%edge_tri(1, e)
-      k = tab%edge_local(1, e)
+      k = findloc(mesh%tri_edge(:, t), e, dim=1)
       ! orient as in the counter-clockwise triangle: the domain lies on the left
       mesh%bedge_nodes(:, j) = [mesh%tri(k, t), mesh%tri(mod(k, 3) + 1, t)]
       mesh%bedge_edge(j) = e
