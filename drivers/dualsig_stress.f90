@@ -54,6 +54,7 @@ program dualsig_stress
   use dualsig_assembly_dual_p1, only: assemble_dual_p1
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve, &
                                      dual_p1_constraint_rows
+  use dualsig_scene_problem, only: analysis_problem_set_scene
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
                               analysis_start, analysis_next_level
   use dualsig_io_files, only: temp_name, file_commit, ensure_parent_dir
@@ -191,14 +192,8 @@ contains
     type(mesh_t), intent(in) :: mesh
     type(scene_t), intent(in) :: scene
     type(analysis_problem_t) :: pb
-    pb%kind = scene%problem
     pb%mesh = mesh
-    pb%gamma_u = pack(scene%gamma_u_markers, scene%gamma_u_markers /= 0)
-    pb%gamma_a = pack(scene%gamma_a_markers, scene%gamma_a_markers /= 0)
-    allocate (pb%f, source=scene%f)
-    allocate (pb%u_exact, source=scene%u)
-    allocate (pb%grad_exact, source=scene%grad_u)
-    pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+    call analysis_problem_set_scene(pb, scene)
   end function stress_analysis_problem
 
   !> The analysis settings of the stress cases: the library solvers' own defaults (AMD,

@@ -21,6 +21,7 @@ module dualsig_bench_duals
   use dualsig_mesh_generate, only: mesh_rectangle
   use dualsig_problem_kinds, only: PROBLEM_P1
   use dualsig_scenes, only: scene_t, scene_lookup
+  use dualsig_scene_problem, only: analysis_problem_set_scene
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
                               analysis_start, analysis_next_level, analysis_free
   implicit none
@@ -50,13 +51,7 @@ contains
       return
     end if
     call mesh_rectangle(pb%mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
-    allocate (pb%f, source=scene%f)
-    allocate (pb%u_exact, source=scene%u)
-    allocate (pb%grad_exact, source=scene%grad_u)
-    pb%kind = scene%problem
-    pb%gamma_u = scene%gamma_u_markers
-    pb%gamma_a = scene%gamma_a_markers
-    pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+    call analysis_problem_set_scene(pb, scene)
     settings%levels = lmax
     open (newunit=csv, file='out/bench_duals_' // scene_name // '.csv', status='replace')
     write (csv, '(a)') 'scene,level,n_primal,primal_method,primal_s,n_dual,dual_s,estimate_s,' // &

@@ -28,6 +28,7 @@ module dualsig_bench_multigrid
   use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_solver_multigrid, only: mg_settings_t, mg_result_t, multigrid_solve, mg_memory_bytes
+  use dualsig_scene_problem, only: analysis_problem_set_scene
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
                               analysis_start, analysis_next_level, analysis_free
   implicit none
@@ -57,13 +58,7 @@ contains
       return
     end if
     call mesh_rectangle(pb%mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
-    allocate (pb%f, source=scene%f)
-    allocate (pb%u_exact, source=scene%u)
-    allocate (pb%grad_exact, source=scene%grad_u)
-    pb%kind = scene%problem
-    pb%gamma_u = scene%gamma_u_markers
-    pb%gamma_a = scene%gamma_a_markers
-    pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+    call analysis_problem_set_scene(pb, scene)
     open (newunit=csv, file='out/bench_multigrid.csv', status='replace')
     write (csv, '(a)') 'scene,pass,level,n,seconds,iterations,galerkin_updates,kkt_residual,err_energy,peak_mb,' // &
       'peak_bytes_per_unknown,solver_bytes_per_unknown,base_amd_s,base_nd_s,ratio'

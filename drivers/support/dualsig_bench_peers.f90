@@ -29,6 +29,7 @@ module dualsig_bench_peers
   use dualsig_problem_primal, only: primal_system_t, primal_assemble, primal_constraints
   use dualsig_scenes, only: scene_t, scene_lookup
   use dualsig_solver_multigrid, only: mg_settings_t, mg_result_t, multigrid_solve
+  use dualsig_scene_problem, only: analysis_problem_set_scene
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
                               analysis_start, analysis_next_level, analysis_free
   implicit none
@@ -67,11 +68,7 @@ contains
     end if
     call execute_command_line('mkdir -p out/peers', exitstat=ios)
     call mesh_rectangle(pb%mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
-    allocate (pb%f, source=scene%f)
-    pb%kind = scene%problem
-    pb%gamma_u = scene%gamma_u_markers
-    pb%gamma_a = scene%gamma_a_markers
-    pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+    call analysis_problem_set_scene(pb, scene, exact=.false.)
     open (newunit=csv, file='out/peers/' // scene_name // '_dualsig.csv', status='replace', iostat=ios)
     if (ios /= 0) then
       write (*, '(a)') 'dualsig_bench peers: cannot write out/peers/' // scene_name // '_dualsig.csv'
