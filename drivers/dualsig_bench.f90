@@ -426,6 +426,7 @@ contains
     end if
     label = 'cold_' // trim(rc%primal_method)
     if (rc%primal_method == 'active_set') label = 'cold_aset'       ! fits the solver column
+    if (rc%primal_method == 'multigrid_amg') label = 'cold_amg'
     write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, mesh_level%nnode, trim(label), rc%primal_iters, &
       rc%primal_factorisations, rc%primal_bordered, rc%primal_seconds, tbase, rc%primal_seconds / tbase, rc%err_energy, &
       rc%kkt_residual, peak_memory_mb()
@@ -444,7 +445,9 @@ contains
   !> Cold solves at one level (`bin/dualsig_bench cold [level]`, level 10 by default: 1.05e6
   !> unknowns) of p2_contact and p1_contact: the baseline (geometric nested dissection +
   !> analyse + factorise + solve of the matrix with only the Dirichlet rows), then cold
-  !> solves with 'schur' and 'active_set' through the pipeline, all in this run.
+  !> solves with 'schur', 'active_set' and 'multigrid' (on one level: TNNMG on the algebraic
+  !> hierarchy of smoothed aggregation, setup included; 'cold_amg') through the pipeline,
+  !> all in this run.
   subroutine bench_cold()
     integer :: lvl, s2, i, p, ord, ios, lcsv
     character(len=16) :: arg
@@ -491,6 +494,7 @@ contains
       deallocate (xb)
       call cold_line(pb, mesh, 'schur', lvl, tbn, lcsv)
       call cold_line(pb, mesh, 'active_set', lvl, tbn, lcsv)
+      call cold_line(pb, mesh, 'multigrid', lvl, tbn, lcsv)    ! algebraic hierarchy (cold_amg)
       flush (6)
     end do
     close (lcsv)
