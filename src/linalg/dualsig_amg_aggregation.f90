@@ -44,14 +44,14 @@ module dualsig_amg_aggregation
 
 contains
 
-  !> The smoothed-aggregation prolongation p (a%n x nc, module header) of the matrix a.
-  !> st: DS_ERR_MEMORY when out of memory.
-  subroutine amg_prolongation(a, p, st)
+  !> The smoothed-aggregation prolongation p (a%n x nc, module header) of the matrix a and
+  !> the aggregate agg(i) in 1..nc of every node.  st: DS_ERR_MEMORY when out of memory.
+  subroutine amg_prolongation(a, p, agg, st)
     type(csr_t), intent(in) :: a
     type(rect_t), intent(out) :: p
+    integer, allocatable, intent(out) :: agg(:)
     type(status_t), intent(inout) :: st
     logical, allocatable :: strong(:)
-    integer, allocatable :: agg(:)
     integer :: nagg, ist
     allocate (strong(size(a%val)), agg(a%n), stat=ist)
     if (alloc_failed(ist, st, 'the strength graph of the aggregation', size(a%val) + a%n, BYTES_INT)) return

@@ -10,6 +10,11 @@
 !> red refinement with the numbering of dualsig_mesh_refine: nodes 1..nc are the coarse
 !> nodes, node nc + e is the midpoint of coarse edge e = (ends(1,e), ends(2,e)), so the P1
 !> prolongation copies the coarse values and averages the two ends at a midpoint.
+!> A mesh without such a hierarchy (level 1 of a run, Gmsh meshes, adaptive steps) gets an
+!> algebraic one (mg_build_algebraic): the prolongations are general sparse matrices from
+!> smoothed aggregation of the matrix itself (dualsig_amg_aggregation), built on all nodes;
+!> the truncation below is the same (frozen rows of P zeroed, Galerkin products recomputed
+!> on the coarse rows that the changed unknowns reach).
 !>
 !> One iteration, from the iterate x:
 !>  1. a symmetric projected Gauss-Seidel sweep (forward, backward; exact per node for
@@ -28,7 +33,9 @@
 !>  6. a symmetric projected Gauss-Seidel sweep (backward, forward).
 !> A zero start is first replaced by nested iteration on the coarser grids (fmg_start: the
 !> QP restricted to each grid, one iteration per grid, interpolated upwards), so that cold
-!> solves, too, take a number of iterations independent of h.
+!> solves, too, take a number of iterations independent of h (on algebraic grids the
+!> constraints of an aggregate restrict those of its members, restrict_bounds; the
+!> iterations then grow slowly, 14-16 at 1.7e4 unknowns to 26-32 at 1e6: doc/performance.md).
 !> Every step decreases the energy (monotone), so the iteration converges from any start;
 !> once the contact set is found it is linear multigrid with h-independent rates (the KKT
 !> residual falls by about 20 per iteration on the P1 and P2 scenes).
@@ -77,6 +84,7 @@ module dualsig_solver_multigrid
     !> (nf x nc, smoothed aggregation) and pt = p^T; ends, cptr, child unused
     logical :: algebraic = .false.
     type(rect_t) :: p, pt
+    integer, allocatable :: agg(:)        !! (nf) algebraic: the aggregate (coarse node) of each fine node
   end type mg_transfer_t
 
   !> A coarse grid's operator and vectors (built by the solve).
@@ -214,6 +222,7 @@ contains
     tb%algebraic = ta%algebraic
     call move_rect(ta%p, tb%p)
     call move_rect(ta%pt, tb%pt)
+    if (allocated(ta%agg)) call move_alloc(ta%agg, tb%agg)
   end subroutine move_transfer
 
   !> rb = ra, ra emptied.
@@ -288,7 +297,7 @@ contains
     integer, allocatable :: pos(:)
     integer :: ierr
     logical :: ok
-    call amg_prolongation(af, t%p, st)
+    call amg_prolongation(af, t%p, t%agg, st)
     if (is_ok(st)) call amg_transpose(t%p, t%pt, st)
     if (is_ok(st)) call amg_galerkin_pattern(t%p, t%pt, af, ac, st)
     if (.not. is_ok(st)) return
@@ -331,7 +340,7 @@ contains
       call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(n) // ' unknowns')
       return
     end if
-    if (settings%fmg_cycles > 0 .and. h%nlevel >= 3 .and. .not. h%transfer(h%nlevel)%algebraic) then
+    if (settings%fmg_cycles > 0 .and. h%nlevel >= 3) then
       if (all(x == 0.0_dp)) call fmg_start(h, a, f, kind, bnd, x, settings, ierr)
       if (ierr /= 0) then
         call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the nested start on the coarser grids')
@@ -381,7 +390,8 @@ contains
 
   !> A start for a cold solve by nested iteration inside the hierarchy (full multigrid):
   !> the QP restricted to grid l = 2..L-1 (the Galerkin operator P^T A P, the load P^T F,
-  !> the bounds of the same nodes: grid l's nodes are nodes 1..n_l of every finer grid),
+  !> the bounds of the same nodes, grid l's nodes being nodes 1..n_l of every finer grid,
+  !> or on algebraic grids those of the aggregates: restrict_bounds),
   !> solved by settings%fmg_cycles iterations on grids 1..l from the interpolated solution
   !> of grid l-1; x = the interpolation of grid L-1's.  Coarse solves that do not converge
   !> are expected (a start only); ierr /= 0: out of memory.
@@ -398,7 +408,8 @@ contains
     type(mg_settings_t) :: sub
     type(mg_result_t) :: rs
     type(status_t) :: st
-    real(dp), allocatable :: fl(:,:), xl(:), xc(:)
+    real(dp), allocatable :: fl(:,:), bl(:,:), xl(:), xc(:)
+    integer, allocatable :: kl(:,:)
     logical, allocatable :: none(:)
     integer :: l, lv, nl, top
     top = h%nlevel
@@ -412,11 +423,16 @@ contains
     do l = 2, top - 1
       ops(l) = h%grid(l)%a
     end do
-    allocate (fl(h%transfer(top)%nc, top - 1), source=0.0_dp, stat=ierr)
+    allocate (fl(h%transfer(top)%nc, top - 1), bl(h%transfer(top)%nc, top - 1), source=0.0_dp, stat=ierr)
+    if (ierr == 0) allocate (kl(h%transfer(top)%nc, top - 1), source=BOUND_FREE, stat=ierr)
     if (ierr /= 0) return
     call restrict(h%transfer(top), f, fl(:, top - 1))
+    call restrict_bounds(h%transfer(top), kind, bnd, kl(:, top - 1), bl(:, top - 1))
     do l = top - 1, 3, -1
-      call restrict(h%transfer(l), fl(1:h%transfer(l)%nf, l), fl(1:h%transfer(l)%nc, l - 1))
+      nl = h%transfer(l)%nf
+      call restrict(h%transfer(l), fl(1:nl, l), fl(1:h%transfer(l)%nc, l - 1))
+      call restrict_bounds(h%transfer(l), kl(1:nl, l), bl(1:nl, l), kl(1:h%transfer(l)%nc, l - 1), &
+                           bl(1:h%transfer(l)%nc, l - 1))
     end do
     sub = settings
     sub%max_iter = settings%fmg_cycles
@@ -438,7 +454,7 @@ contains
       do lv = 2, l
         call move_transfer(h%transfer(lv), hs%transfer(lv))
       end do
-      call multigrid_solve(hs, ops(l), fl(1:nl, l), kind(1:nl), bnd(1:nl), xl, sub, rs, st)
+      call multigrid_solve(hs, ops(l), fl(1:nl, l), kl(1:nl, l), bl(1:nl, l), xl, sub, rs, st)
       do lv = 2, l
         call move_transfer(hs%transfer(lv), h%transfer(lv))
       end do
@@ -448,6 +464,38 @@ contains
     end do
     call prolong_set(h%transfer(top), xl, x)
   end subroutine fmg_start
+
+  !> The constraints of the QP restricted to the coarse grid of t: on a red refinement the
+  !> coarse nodes' own (kc, bc = kf, bf of nodes 1..nc); on an algebraic grid those of the
+  !> aggregate: fixed (at a fixed member's value) when a member is fixed, else bounded below by
+  !> the largest bound of its bounded members (a constant above it is feasible), else free.
+  pure subroutine restrict_bounds(t, kf, bf, kc, bc)
+    type(mg_transfer_t), intent(in) :: t
+    integer, intent(in) :: kf(:)
+    real(dp), intent(in) :: bf(:)
+    integer, intent(out) :: kc(:)
+    real(dp), intent(out) :: bc(:)
+    integer :: i, c
+    if (.not. t%algebraic) then
+      kc = kf(1:t%nc)
+      bc = bf(1:t%nc)
+      return
+    end if
+    kc = BOUND_FREE
+    bc = -huge(1.0_dp)
+    do i = 1, t%nf
+      c = t%agg(i)
+      if (kc(c) == BOUND_FIXED) cycle
+      if (kf(i) == BOUND_FIXED) then
+        kc(c) = BOUND_FIXED
+        bc(c) = bf(i)
+      else if (kf(i) == BOUND_LOWER) then
+        kc(c) = BOUND_LOWER
+        bc(c) = max(bc(c), bf(i))
+      end if
+    end do
+    where (kc == BOUND_FREE) bc = 0.0_dp
+  end subroutine restrict_bounds
 
   !> The checks of multigrid_solve's arguments.
   subroutine check_input(h, a, f, kind, bnd, x, settings, st)
@@ -534,7 +582,11 @@ contains
     if (ierr /= 0) return
     do l = h%nlevel, 2, -1
       nc = h%transfer(l)%nc
-      if (.not. general) then
+      if (h%transfer(l)%algebraic) then
+        if (l == h%nlevel) call amg_galerkin_pattern(h%transfer(l)%p, h%transfer(l)%pt, a, h%grid(l - 1)%a, st)
+        if (l < h%nlevel) call amg_galerkin_pattern(h%transfer(l)%p, h%transfer(l)%pt, h%grid(l)%a, h%grid(l - 1)%a, st)
+        if (.not. is_ok(st)) ierr = 1
+      else if (.not. general) then
         call csr_pattern_from_edges(nc, coarse_edges(h, l), h%grid(l - 1)%a, st=st)
         if (.not. is_ok(st)) ierr = 1
       else if (l == h%nlevel) then
@@ -1092,7 +1144,7 @@ contains
       associate (t => h%transfer(l))
         if (allocated(t%ends)) bytes = bytes + 4_i8 * (size(t%ends, kind=i8) + size(t%cptr, kind=i8) + &
                                                        size(t%child, kind=i8))
-        if (allocated(t%p%val)) bytes = bytes + 24_i8 * size(t%p%val, kind=i8) + 4_i8 * (t%nf + t%nc + 2)
+        if (allocated(t%p%val)) bytes = bytes + 24_i8 * size(t%p%val, kind=i8) + 4_i8 * (2 * t%nf + t%nc + 2)
       end associate
     end do
     if (.not. allocated(h%grid)) return
