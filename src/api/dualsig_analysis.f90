@@ -648,8 +648,8 @@ contains
   !> their Schur complement, one back substitution: dualsig_solver_boundary_schur), the
   !> primal-dual active-set method (one CHOLMOD factor, changes bordered), both with the
   !> ordering chosen by select_ordering, or projected SOR (omega given or from a Lanczos
-  !> estimate).  'auto' is 'schur' when at most settings%max_schur unknowns are bounded
-  !> (the O(sqrt N) nodes of Gamma_a), else 'active_set'.
+  !> estimate).  'auto': see primal_method_of; when its 'multigrid_amg' does not converge
+  !> (max_iter) or fails, the level is solved again by 'schur' or 'active_set' (the same rule).
   subroutine solve_primal(an, sys, res, st)
     type(analysis_t), intent(inout) :: an
     type(primal_system_t), intent(in) :: sys
@@ -666,6 +666,14 @@ contains
     res%primal_method = primal_method_of(an%settings, sys%kind, an%mg%nlevel)
     if (res%primal_method == 'multigrid' .or. res%primal_method == 'multigrid_amg') then
       call solve_primal_multigrid(an, sys, res, st_solve)
+      if (res%primal_method == 'multigrid_amg' .and. an%settings%method == 'auto' .and. st_solve%code /= DS_OK) then
+        ! 'auto' falls back on a factorisation when the algebraic multigrid fails or stalls
+        if (.not. is_ok(st_solve)) an%u = 0.0_dp
+        res%primal_method = merge('schur     ', 'active_set', count(sys%kind == BOUND_LOWER) <= an%settings%max_schur)
+      end if
+    end if
+    if (res%primal_method == 'multigrid' .or. res%primal_method == 'multigrid_amg') then
+      continue
     else if (res%primal_method == 'schur') then
       call solve_primal_schur(an, sys, res, st, st_solve)
       if (.not. is_ok(st)) return
