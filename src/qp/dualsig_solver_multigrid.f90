@@ -35,7 +35,7 @@
 !> QP restricted to each grid, one iteration per grid, interpolated upwards), so that cold
 !> solves, too, take a number of iterations independent of h (on algebraic grids the
 !> constraints of an aggregate restrict those of its members, restrict_bounds; the
-!> iterations then grow slowly, 14-16 at 1.7e4 unknowns to 26-32 at 1e6: doc/performance.md).
+!> iterations then grow slowly, 14-16 at 1.7e4 unknowns to 21-24 at 1e6: doc/performance.md).
 !> Every step decreases the energy (monotone), so the iteration converges from any start;
 !> once the contact set is found it is linear multigrid with h-independent rates (the KKT
 !> residual falls by about 20 per iteration on the P1 and P2 scenes).
