@@ -14,9 +14,10 @@
 !> seconds, the relative divergence defect of the solver's field and of the returned
 !> (equilibrated) field, and ||grad u - lambda^h||.  The large P2 rows report the solver's
 !> defect in the residual column.  The large section also prints a cold line per level
-!> (cold_schur or cold_aset: a zero start on that level's mesh given as one level, method
-!> 'auto', against the same baseline); `bin/dualsig_bench cold [level]` runs only cold
-!> 'schur' and 'active_set' solves of both scenes at one level (10 by default).
+!> (cold_amg above 1e4 unknowns, else cold_schur or cold_aset: a zero start on that level's
+!> mesh given as one level, method 'auto', against the same baseline);
+!> `bin/dualsig_bench cold [level]` runs only cold 'schur', 'active_set' and 'multigrid'
+!> (cold_amg: on the algebraic hierarchy) solves of both scenes at one level (10 by default).
 !> `bin/dualsig_bench multigrid [lmax [lmax_base [scene]]]` runs only the multigrid section
 !> (dualsig_bench_multigrid: TNNMG per level to lmax = 12 by default, baselines to 10,
 !> scene p2_contact); the whole run ends with it.
