@@ -14,9 +14,10 @@
 !> seconds, the relative divergence defect of the solver's field and of the returned
 !> (equilibrated) field, and ||grad u - lambda^h||.  The large P2 rows report the solver's
 !> defect in the residual column.  The large section also prints a cold line per level
-!> (cold_schur or cold_aset: a zero start on that level's mesh given as one level, method
-!> 'auto', against the same baseline); `bin/dualsig_bench cold [level]` runs only cold
-!> 'schur' and 'active_set' solves of both scenes at one level (10 by default).
+!> (cold_amg above 1e4 unknowns, else cold_schur or cold_aset: a zero start on that level's
+!> mesh given as one level, method 'auto', against the same baseline);
+!> `bin/dualsig_bench cold [level]` runs only cold 'schur', 'active_set' and 'multigrid'
+!> (cold_amg: on the algebraic hierarchy) solves of both scenes at one level (10 by default).
 !> `bin/dualsig_bench multigrid [lmax [lmax_base [scene]]]` runs only the multigrid section
 !> (dualsig_bench_multigrid: TNNMG per level to lmax = 12 by default, baselines to 10,
 !> scene p2_contact); the whole run ends with it and the duals section.
@@ -452,6 +453,7 @@ contains
     end if
     label = 'cold_' // trim(rc%primal_method)
     if (rc%primal_method == 'active_set') label = 'cold_aset'       ! fits the solver column
+    if (rc%primal_method == 'multigrid_amg') label = 'cold_amg'
     write (*, '(i5,i10,a11,i8,i5,i5,2f10.3,f8.2,2es12.3,f10.0)') level, mesh_level%nnode, trim(label), rc%primal_iters, &
       rc%primal_factorisations, rc%primal_bordered, rc%primal_seconds, tbase, rc%primal_seconds / tbase, rc%err_energy, &
       rc%kkt_residual, peak_memory_mb()
@@ -470,7 +472,9 @@ contains
   !> Cold solves at one level (`bin/dualsig_bench cold [level]`, level 10 by default: 1.05e6
   !> unknowns) of p2_contact and p1_contact: the baseline (geometric nested dissection +
   !> analyse + factorise + solve of the matrix with only the Dirichlet rows), then cold
-  !> solves with 'schur' and 'active_set' through the pipeline, all in this run.
+  !> solves with 'schur', 'active_set' and 'multigrid' (on one level: TNNMG on the algebraic
+  !> hierarchy of smoothed aggregation, setup included; 'cold_amg') through the pipeline,
+  !> all in this run.
   subroutine bench_cold()
     integer :: lvl, s2, i, p, ord, ios, lcsv
     character(len=16) :: arg
@@ -517,6 +521,7 @@ contains
       deallocate (xb)
       call cold_line(pb, mesh, 'schur', lvl, tbn, lcsv)
       call cold_line(pb, mesh, 'active_set', lvl, tbn, lcsv)
+      call cold_line(pb, mesh, 'multigrid', lvl, tbn, lcsv)    ! algebraic hierarchy (cold_amg)
       flush (6)
     end do
     close (lcsv)

@@ -35,7 +35,7 @@ module dualsig_analysis
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, mg_reset, mg_add_level, mg_clear, &
-                                      multigrid_solve
+                                      multigrid_solve, mg_build_algebraic
   use dualsig_solver_boundary_schur, only: boundary_schur_settings_t, boundary_schur_result_t, boundary_schur_qp_solve, &
                                            boundary_schur_max_default
   use dualsig_fields, only: field_t, vector_field_t
@@ -186,7 +186,8 @@ module dualsig_analysis
     integer :: ndof = 0                     !! unknowns not fixed by Gamma_u
     real(dp) :: h = 0.0_dp                  !! longest side
     ! primal
-    character(len=16) :: primal_method = '' !! the primal solver used: 'schur', 'active_set', 'psor' or 'multigrid'
+    !> the primal solver used: 'schur', 'active_set', 'psor', 'multigrid' or 'multigrid_amg'
+    character(len=16) :: primal_method = ''
     integer :: primal_iters = 0             !! sweeps, active-set iterations, dense pivoting steps ('schur'), V-cycles
     integer :: primal_factorisations = 0    !! active set, schur: CHOLMOD factorisations; multigrid: Galerkin updates
     integer :: primal_bordered = 0          !! active set: iterations done by bordering on the kept factor
@@ -660,8 +661,8 @@ contains
   !> their Schur complement, one back substitution: dualsig_solver_boundary_schur), the
   !> primal-dual active-set method (one CHOLMOD factor, changes bordered), both with the
   !> ordering chosen by select_ordering, or projected SOR (omega given or from a Lanczos
-  !> estimate).  'auto' is 'schur' when at most settings%max_schur unknowns are bounded
-  !> (the O(sqrt N) nodes of Gamma_a), else 'active_set'.
+  !> estimate).  'auto': see primal_method_of; when its 'multigrid_amg' does not converge
+  !> (max_iter) or fails, the level is solved again by 'schur' or 'active_set' (the same rule).
   subroutine solve_primal(an, sys, res, st)
     type(analysis_t), intent(inout) :: an
     type(primal_system_t), intent(in) :: sys
@@ -676,8 +677,16 @@ contains
     integer :: steps
     res%primal_seconds = wall_seconds()
     res%primal_method = primal_method_of(an%settings, sys%kind, an%mg%nlevel)
-    if (res%primal_method == 'multigrid') then
+    if (res%primal_method == 'multigrid' .or. res%primal_method == 'multigrid_amg') then
       call solve_primal_multigrid(an, sys, res, st_solve)
+      if (res%primal_method == 'multigrid_amg' .and. an%settings%method == 'auto' .and. st_solve%code /= DS_OK) then
+        ! 'auto' falls back on a factorisation when the algebraic multigrid fails or stalls
+        if (.not. is_ok(st_solve)) an%u = 0.0_dp
+        res%primal_method = merge('schur     ', 'active_set', count(sys%kind == BOUND_LOWER) <= an%settings%max_schur)
+      end if
+    end if
+    if (res%primal_method == 'multigrid' .or. res%primal_method == 'multigrid_amg') then
+      continue
     else if (res%primal_method == 'schur') then
       call solve_primal_schur(an, sys, res, st, st_solve)
       if (.not. is_ok(st)) return
@@ -712,15 +721,20 @@ contains
 
   !> The primal method a level uses: settings%method, 'auto' resolved as 'multigrid' on a
   !> hierarchy of at least two uniform grids with more than mg_auto_min_unknowns unknowns
-  !> (O(N), several times faster than one factorisation there: doc/performance.md), else by
-  !> the number of bounded unknowns ('schur' up to settings%max_schur, 'active_set' above);
-  !> 'multigrid' without a hierarchy (level 1, adaptive steps) resolved as 'auto'.
+  !> (O(N), several times faster than one factorisation there: doc/performance.md), and as
+  !> 'multigrid_amg' (the same multigrid on an algebraic hierarchy, smoothed aggregation of
+  !> the level's matrix) above mg_auto_min_unknowns unknowns without such a hierarchy (level
+  !> 1, Gmsh meshes, adaptive steps), else by the number of bounded unknowns ('schur' up to
+  !> settings%max_schur, 'active_set' above).  'multigrid' without a hierarchy is
+  !> 'multigrid_amg' above mg_auto_min_unknowns unknowns, 'auto' below.
   function primal_method_of(settings, kind, grids) result(method)
     type(analysis_settings_t), intent(in) :: settings
     integer, intent(in) :: kind(:)
     integer, intent(in) :: grids
     character(len=16) :: method
     method = settings%method
+    if (any(method == [character(len=16) :: 'auto', 'multigrid']) .and. grids < 2 .and. &
+        size(kind) > mg_auto_min_unknowns) method = 'multigrid_amg'
     if (method == 'multigrid' .and. grids < 2) method = 'auto'
     if (method == 'auto' .and. grids >= 2 .and. size(kind) > mg_auto_min_unknowns) method = 'multigrid'
     if (method == 'auto') method = merge('schur     ', 'active_set', count(kind == BOUND_LOWER) <= settings%max_schur)
@@ -748,7 +762,9 @@ contains
   end subroutine solve_primal_schur
 
   !> The primal QP by truncated nonsmooth Newton multigrid (dualsig_solver_multigrid) on the
-  !> grids of the uniform refinements so far, from an%u; at most min(max_iter, 200) V-cycles.
+  !> grids of the uniform refinements so far ('multigrid') or on an algebraic hierarchy of
+  !> the level's matrix built here and released after the solve ('multigrid_amg'), from
+  !> an%u; at most min(max_iter, 200) V-cycles.
   subroutine solve_primal_multigrid(an, sys, res, st_solve)
     type(analysis_t), intent(inout) :: an
     type(primal_system_t), intent(in) :: sys
@@ -756,9 +772,16 @@ contains
     type(status_t), intent(out) :: st_solve
     type(mg_settings_t) :: mset
     type(mg_result_t) :: mres
+    type(mg_hierarchy_t) :: amg
     mset%tol = an%settings%tol
     mset%max_iter = min(an%settings%max_iter, mset%max_iter)
-    call multigrid_solve(an%mg, sys%a, sys%load, sys%kind, sys%bnd, an%u, mset, mres, st_solve)
+    if (res%primal_method == 'multigrid_amg') then
+      call mg_build_algebraic(amg, sys%a, st_solve)
+      if (is_ok(st_solve)) call multigrid_solve(amg, sys%a, sys%load, sys%kind, sys%bnd, an%u, mset, mres, st_solve)
+      call mg_clear(amg)
+    else
+      call multigrid_solve(an%mg, sys%a, sys%load, sys%kind, sys%bnd, an%u, mset, mres, st_solve)
+    end if
     res%primal_iters = mres%iterations
     res%primal_factorisations = mres%galerkin_updates
     res%kkt_residual = mres%kkt_residual

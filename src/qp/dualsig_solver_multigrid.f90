@@ -10,6 +10,11 @@
 !> red refinement with the numbering of dualsig_mesh_refine: nodes 1..nc are the coarse
 !> nodes, node nc + e is the midpoint of coarse edge e = (ends(1,e), ends(2,e)), so the P1
 !> prolongation copies the coarse values and averages the two ends at a midpoint.
+!> A mesh without such a hierarchy (level 1 of a run, Gmsh meshes, adaptive steps) gets an
+!> algebraic one (mg_build_algebraic): the prolongations are general sparse matrices from
+!> smoothed aggregation of the matrix itself (dualsig_amg_aggregation), built on all nodes;
+!> the truncation below is the same (frozen rows of P zeroed, Galerkin products recomputed
+!> on the coarse rows that the changed unknowns reach).
 !>
 !> One iteration, from the iterate x:
 !>  1. a symmetric projected Gauss-Seidel sweep (forward, backward; exact per node for
@@ -28,7 +33,9 @@
 !>  6. a symmetric projected Gauss-Seidel sweep (backward, forward).
 !> A zero start is first replaced by nested iteration on the coarser grids (fmg_start: the
 !> QP restricted to each grid, one iteration per grid, interpolated upwards), so that cold
-!> solves, too, take a number of iterations independent of h.
+!> solves, too, take a number of iterations independent of h (on algebraic grids the
+!> constraints of an aggregate restrict those of its members, restrict_bounds; the
+!> iterations then grow slowly, 14-16 at 1.7e4 unknowns to 21-24 at 1e6: doc/performance.md).
 !> Every step decreases the energy (monotone), so the iteration converges from any start;
 !> once the contact set is found it is linear multigrid with h-independent rates (the KKT
 !> residual falls by about 20 per iteration on the P1 and P2 scenes).
@@ -38,19 +45,26 @@
 !> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
-  use dualsig_sparse, only: csr_t, csr_matvec, csr_pattern_from_edges
+  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec
+  use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values, &
+                                     amg_coarsest_max
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
                                   cholesky_free, ORDERING_AMD
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_LOGICAL
   implicit none
   private
 
   public :: mg_hierarchy_t, mg_settings_t, mg_result_t
-  public :: mg_reset, mg_add_level, mg_clear, multigrid_solve, mg_memory_bytes
+  public :: mg_reset, mg_add_level, mg_clear, multigrid_solve, mg_memory_bytes, mg_build_algebraic
 
+  !> Most grids of an algebraic hierarchy (coarsening by ~9 per grid in 2D: never reached).
+  integer, parameter :: amg_max_grids = 25
+  !> An aggregation that keeps more than this fraction of the unknowns ends the coarsening.
+  real(dp), parameter :: amg_min_coarsening = 0.8_dp
   !> Default limit of TNNMG iterations (each reduces the residual by about ten).
   integer, parameter :: mg_max_iter_default = 200
   !> The coarsest grid is solved exactly by CHOLMOD (its factor is 1/4^(L-1) of the finest
@@ -66,6 +80,11 @@ module dualsig_solver_multigrid
     integer, allocatable :: ends(:,:)     !! (2, nf - nc) coarse ends of the edge of midpoint nc + e
     integer, allocatable :: cptr(:)       !! (nc + 1)
     integer, allocatable :: child(:)      !! fine nodes by coarse node
+    !> an algebraic grid (mg_build_algebraic): the prolongation is the general matrix p
+    !> (nf x nc, smoothed aggregation) and pt = p^T; ends, cptr, child unused
+    logical :: algebraic = .false.
+    type(rect_t) :: p, pt
+    integer, allocatable :: agg(:)        !! (nf) algebraic: the aggregate (coarse node) of each fine node
   end type mg_transfer_t
 
   !> A coarse grid's operator and vectors (built by the solve).
@@ -200,7 +219,97 @@ contains
     call move_alloc(ta%ends, tb%ends)
     call move_alloc(ta%cptr, tb%cptr)
     call move_alloc(ta%child, tb%child)
+    tb%algebraic = ta%algebraic
+    call move_rect(ta%p, tb%p)
+    call move_rect(ta%pt, tb%pt)
+    if (allocated(ta%agg)) call move_alloc(ta%agg, tb%agg)
   end subroutine move_transfer
+
+  !> rb = ra, ra emptied.
+  subroutine move_rect(ra, rb)
+    type(rect_t), intent(inout) :: ra, rb
+    rb%m = ra%m
+    rb%n = ra%n
+    if (allocated(ra%rowptr)) call move_alloc(ra%rowptr, rb%rowptr)
+    if (allocated(ra%col)) call move_alloc(ra%col, rb%col)
+    if (allocated(ra%val)) call move_alloc(ra%val, rb%val)
+  end subroutine move_rect
+
+  !> Replace h by an algebraic hierarchy of the matrix a (smoothed aggregation,
+  !> dualsig_amg_aggregation) for a mesh without a hierarchy of refinements: grids are
+  !> aggregated until one has at most amg_coarsest_max unknowns (at least one coarse grid
+  !> when a%n > 1); grid l-1's operator is P^T A_l P, later truncated by the solve.
+  !> st: DS_ERR_MEMORY; DS_ERR_NUMERIC when the matrix cannot be coarsened at all.
+  subroutine mg_build_algebraic(h, a, st)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    type(status_t), intent(out) :: st
+    type(mg_transfer_t), allocatable :: tr(:)
+    type(csr_t), allocatable :: ops(:)
+    integer :: nb, k, l, n, ierr
+    call mg_clear(h)
+    allocate (tr(amg_max_grids), ops(amg_max_grids), stat=ierr)   ! small: descriptors
+    if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the hierarchy')
+    if (ierr /= 0) return
+    nb = 0
+    n = a%n
+    do while (nb < amg_max_grids - 1 .and. (n > amg_coarsest_max .or. nb == 0) .and. n > 1)
+      if (nb == 0) then
+        call algebraic_grid(a, tr(nb + 1), ops(nb + 1), st)
+      else
+        call algebraic_grid(ops(nb), tr(nb + 1), ops(nb + 1), st)
+      end if
+      if (.not. is_ok(st)) return
+      if (real(tr(nb + 1)%nc, dp) > amg_min_coarsening * n) exit
+      nb = nb + 1
+      n = tr(nb)%nc
+    end do
+    if (nb == 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: the aggregation does not coarsen a matrix of order ' // itoa(a%n))
+      return
+    end if
+    h%nlevel = nb + 1
+    h%n1 = n
+    allocate (h%transfer(nb + 1), h%grid(nb), stat=ierr)   ! small: descriptors
+    if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the hierarchy')
+    if (ierr /= 0) return
+    do k = 1, nb                     ! built finest first: transfer k maps grid nb+1-k to nb+2-k
+      l = nb + 2 - k
+      call move_transfer(tr(k), h%transfer(l))
+      call move_alloc(ops(k)%rowptr, h%grid(l - 1)%a%rowptr)
+      call move_alloc(ops(k)%col, h%grid(l - 1)%a%col)
+      call move_alloc(ops(k)%diag, h%grid(l - 1)%a%diag)
+      call move_alloc(ops(k)%val, h%grid(l - 1)%a%val)
+      h%grid(l - 1)%a%n = ops(k)%n
+      allocate (h%grid(l - 1)%x(ops(k)%n), h%grid(l - 1)%b(ops(k)%n), h%grid(l - 1)%r(ops(k)%n), stat=ierr)
+      if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse vectors')
+      if (ierr /= 0) return
+    end do
+  end subroutine mg_build_algebraic
+
+  !> One algebraic grid below the operator af: the transfer t (P by smoothed aggregation
+  !> and P^T) and the coarse operator ac = P^T af P.
+  subroutine algebraic_grid(af, t, ac, st)
+    type(csr_t), intent(in) :: af
+    type(mg_transfer_t), intent(inout) :: t
+    type(csr_t), intent(inout) :: ac
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: pos(:)
+    integer :: ierr
+    logical :: ok
+    call amg_prolongation(af, t%p, t%agg, st)
+    if (is_ok(st)) call amg_transpose(t%p, t%pt, st)
+    if (is_ok(st)) call amg_galerkin_pattern(t%p, t%pt, af, ac, st)
+    if (.not. is_ok(st)) return
+    t%algebraic = .true.
+    t%nf = af%n
+    t%nc = t%p%n
+    allocate (pos(t%nc), source=0, stat=ierr)
+    if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for a coarse operator')
+    if (ierr /= 0) return
+    ok = .true.
+    call amg_galerkin_values(t%p, t%pt, af, ac, pos, ok)
+  end subroutine algebraic_grid
 
   !> TNNMG (module header) from the start x (projected on the constraints first) on the
   !> finest grid of h, whose matrix is a.  On return x is the last iterate.
@@ -281,7 +390,8 @@ contains
 
   !> A start for a cold solve by nested iteration inside the hierarchy (full multigrid):
   !> the QP restricted to grid l = 2..L-1 (the Galerkin operator P^T A P, the load P^T F,
-  !> the bounds of the same nodes: grid l's nodes are nodes 1..n_l of every finer grid),
+  !> the bounds of the same nodes, grid l's nodes being nodes 1..n_l of every finer grid,
+  !> or on algebraic grids those of the aggregates: restrict_bounds),
   !> solved by settings%fmg_cycles iterations on grids 1..l from the interpolated solution
   !> of grid l-1; x = the interpolation of grid L-1's.  Coarse solves that do not converge
   !> are expected (a start only); ierr /= 0: out of memory.
@@ -298,7 +408,8 @@ contains
     type(mg_settings_t) :: sub
     type(mg_result_t) :: rs
     type(status_t) :: st
-    real(dp), allocatable :: fl(:,:), xl(:), xc(:)
+    real(dp), allocatable :: fl(:,:), bl(:,:), xl(:), xc(:)
+    integer, allocatable :: kl(:,:)
     logical, allocatable :: none(:)
     integer :: l, lv, nl, top
     top = h%nlevel
@@ -312,11 +423,16 @@ contains
     do l = 2, top - 1
       ops(l) = h%grid(l)%a
     end do
-    allocate (fl(h%transfer(top)%nc, top - 1), source=0.0_dp, stat=ierr)
+    allocate (fl(h%transfer(top)%nc, top - 1), bl(h%transfer(top)%nc, top - 1), source=0.0_dp, stat=ierr)
+    if (ierr == 0) allocate (kl(h%transfer(top)%nc, top - 1), source=BOUND_FREE, stat=ierr)
     if (ierr /= 0) return
     call restrict(h%transfer(top), f, fl(:, top - 1))
+    call restrict_bounds(h%transfer(top), kind, bnd, kl(:, top - 1), bl(:, top - 1))
     do l = top - 1, 3, -1
-      call restrict(h%transfer(l), fl(1:h%transfer(l)%nf, l), fl(1:h%transfer(l)%nc, l - 1))
+      nl = h%transfer(l)%nf
+      call restrict(h%transfer(l), fl(1:nl, l), fl(1:h%transfer(l)%nc, l - 1))
+      call restrict_bounds(h%transfer(l), kl(1:nl, l), bl(1:nl, l), kl(1:h%transfer(l)%nc, l - 1), &
+                           bl(1:h%transfer(l)%nc, l - 1))
     end do
     sub = settings
     sub%max_iter = settings%fmg_cycles
@@ -338,7 +454,7 @@ contains
       do lv = 2, l
         call move_transfer(h%transfer(lv), hs%transfer(lv))
       end do
-      call multigrid_solve(hs, ops(l), fl(1:nl, l), kind(1:nl), bnd(1:nl), xl, sub, rs, st)
+      call multigrid_solve(hs, ops(l), fl(1:nl, l), kl(1:nl, l), bl(1:nl, l), xl, sub, rs, st)
       do lv = 2, l
         call move_transfer(hs%transfer(lv), h%transfer(lv))
       end do
@@ -348,6 +464,38 @@ contains
     end do
     call prolong_set(h%transfer(top), xl, x)
   end subroutine fmg_start
+
+  !> The constraints of the QP restricted to the coarse grid of t: on a red refinement the
+  !> coarse nodes' own (kc, bc = kf, bf of nodes 1..nc); on an algebraic grid those of the
+  !> aggregate: fixed (at a fixed member's value) when a member is fixed, else bounded below by
+  !> the largest bound of its bounded members (a constant above it is feasible), else free.
+  pure subroutine restrict_bounds(t, kf, bf, kc, bc)
+    type(mg_transfer_t), intent(in) :: t
+    integer, intent(in) :: kf(:)
+    real(dp), intent(in) :: bf(:)
+    integer, intent(out) :: kc(:)
+    real(dp), intent(out) :: bc(:)
+    integer :: i, c
+    if (.not. t%algebraic) then
+      kc = kf(1:t%nc)
+      bc = bf(1:t%nc)
+      return
+    end if
+    kc = BOUND_FREE
+    bc = -huge(1.0_dp)
+    do i = 1, t%nf
+      c = t%agg(i)
+      if (kc(c) == BOUND_FIXED) cycle
+      if (kf(i) == BOUND_FIXED) then
+        kc(c) = BOUND_FIXED
+        bc(c) = bf(i)
+      else if (kf(i) == BOUND_LOWER) then
+        kc(c) = BOUND_LOWER
+        bc(c) = max(bc(c), bf(i))
+      end if
+    end do
+    where (kc == BOUND_FREE) bc = 0.0_dp
+  end subroutine restrict_bounds
 
   !> The checks of multigrid_solve's arguments.
   subroutine check_input(h, a, f, kind, bnd, x, settings, st)
@@ -434,7 +582,11 @@ contains
     if (ierr /= 0) return
     do l = h%nlevel, 2, -1
       nc = h%transfer(l)%nc
-      if (.not. general) then
+      if (h%transfer(l)%algebraic) then
+        if (l == h%nlevel) call amg_galerkin_pattern(h%transfer(l)%p, h%transfer(l)%pt, a, h%grid(l - 1)%a, st)
+        if (l < h%nlevel) call amg_galerkin_pattern(h%transfer(l)%p, h%transfer(l)%pt, h%grid(l)%a, h%grid(l - 1)%a, st)
+        if (.not. is_ok(st)) ierr = 1
+      else if (.not. general) then
         call csr_pattern_from_edges(nc, coarse_edges(h, l), h%grid(l - 1)%a, st=st)
         if (.not. is_ok(st)) ierr = 1
       else if (l == h%nlevel) then
@@ -601,6 +753,10 @@ contains
     integer, allocatable :: pos(:)
     integer :: l, i, ci, ierr
     logical :: ok
+    if (h%transfer(h%nlevel)%algebraic) then
+      call galerkin_algebraic(h, a, frozen, st, frozen_prev)
+      return
+    end if
     ok = .true.
     allocate (mark(a%n), stat=ierr)
     if (ierr == 0) allocate (pos(h%transfer(h%nlevel)%nc), source=0, stat=ierr)
@@ -674,6 +830,10 @@ contains
     integer, allocatable :: pos(:)
     integer :: l, ci, ierr, attempt
     logical :: ok
+    if (h%transfer(h%nlevel)%algebraic) then
+      call galerkin_algebraic(h, a, frozen, st)
+      return
+    end if
     allocate (pos(h%transfer(h%nlevel)%nc), source=0, stat=ierr)
     do attempt = 1, 2
       if (ierr /= 0) exit
@@ -695,6 +855,84 @@ contains
     end if
     call factor_coarsest(h)
   end subroutine galerkin_all
+
+  !> The coarse operators of an algebraic hierarchy for the frozen unknowns of the finest
+  !> grid (P_T^T A P_T, then P^T A_l P below), and the factor of grid 1.  frozen_prev
+  !> present: only the rows that change (on grid L-1 the aggregates reaching a changed
+  !> unknown or a neighbour of one; below, those reaching a changed row or its neighbours).
+  subroutine galerkin_algebraic(h, a, frozen, st, frozen_prev)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: frozen(:)
+    type(status_t), intent(out) :: st
+    logical, intent(in), optional :: frozen_prev(:)
+    integer, allocatable :: pos(:)
+    logical, allocatable :: mark(:), markc(:)
+    integer :: l, i, ierr
+    logical :: ok
+    allocate (pos(h%transfer(h%nlevel)%nc), source=0, stat=ierr)
+    if (ierr == 0 .and. present(frozen_prev)) allocate (mark(a%n), source=.false., stat=ierr)
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse operators')
+      return
+    end if
+    ok = .true.
+    if (present(frozen_prev)) then
+      do i = 1, a%n
+        if (frozen(i) .neqv. frozen_prev(i)) mark(a%col(a%rowptr(i):a%rowptr(i + 1) - 1)) = .true.
+      end do
+    end if
+    do l = h%nlevel, 2, -1
+      associate (t => h%transfer(l))
+        if (present(frozen_prev)) then
+          allocate (markc(t%nc), source=.false., stat=ierr)
+          if (ierr /= 0) then
+            call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse operators')
+            return
+          end if
+          do i = 1, t%nf
+            if (mark(i)) markc(t%p%col(t%p%rowptr(i):t%p%rowptr(i + 1) - 1)) = .true.
+          end do
+          if (l == h%nlevel) then
+            call amg_galerkin_values(t%p, t%pt, a, h%grid(l - 1)%a, pos, ok, frozen, markc)
+          else
+            call amg_galerkin_values(t%p, t%pt, h%grid(l)%a, h%grid(l - 1)%a, pos, ok, rows=markc)
+          end if
+          call neighbours_of(h%grid(l - 1)%a, markc, mark, st)
+          if (.not. is_ok(st)) return
+        else if (l == h%nlevel) then
+          call amg_galerkin_values(t%p, t%pt, a, h%grid(l - 1)%a, pos, ok, frozen)
+        else
+          call amg_galerkin_values(t%p, t%pt, h%grid(l)%a, h%grid(l - 1)%a, pos, ok)
+        end if
+      end associate
+    end do
+    if (.not. ok) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: the matrix does not have the pattern of its algebraic hierarchy')
+      return
+    end if
+    if (present(frozen_prev)) then
+      if (.not. any(mark)) return
+    end if
+    call factor_coarsest(h)
+  end subroutine galerkin_algebraic
+
+  !> mark = rows(i) or rows(j) for a neighbour j of i in a (size a%n; rows deallocated).
+  subroutine neighbours_of(a, rows, mark, st)
+    type(csr_t), intent(in) :: a
+    logical, allocatable, intent(inout) :: rows(:)
+    logical, allocatable, intent(inout) :: mark(:)
+    type(status_t), intent(inout) :: st
+    integer :: i, ist
+    if (allocated(mark)) deallocate (mark)
+    allocate (mark(a%n), stat=ist)
+    if (alloc_failed(ist, st, 'a coarse grid mask', a%n, BYTES_LOGICAL)) return
+    mark = rows
+    do i = 1, a%n
+      if (rows(i)) mark(a%col(a%rowptr(i):a%rowptr(i + 1) - 1)) = .true.
+    end do
+    deallocate (rows)
+  end subroutine neighbours_of
 
   !> v = P_T (one V-cycle on grids L-1..1 for the restricted residual P_T^T r), zero at the
   !> frozen unknowns.
@@ -784,6 +1022,10 @@ contains
     real(dp), intent(in) :: rf(:)
     real(dp), intent(out) :: bc(:)
     integer :: e
+    if (t%algebraic) then
+      call rect_matvec(t%pt, rf, bc)
+      return
+    end if
     bc = rf(1:t%nc)
     do e = 1, t%nf - t%nc
       bc(t%ends(1, e)) = bc(t%ends(1, e)) + 0.5_dp * rf(t%nc + e)
@@ -797,6 +1039,10 @@ contains
     real(dp), intent(in) :: xc(:)
     real(dp), intent(out) :: xf(:)
     integer :: e
+    if (t%algebraic) then
+      call rect_matvec(t%p, xc, xf)
+      return
+    end if
     xf(1:t%nc) = xc
     do e = 1, t%nf - t%nc
       xf(t%nc + e) = 0.5_dp * (xc(t%ends(1, e)) + xc(t%ends(2, e)))
@@ -808,7 +1054,15 @@ contains
     type(mg_transfer_t), intent(in) :: t
     real(dp), intent(in) :: xc(:)
     real(dp), intent(inout) :: xf(:)
-    integer :: e
+    integer :: e, i, p
+    if (t%algebraic) then
+      do i = 1, t%nf
+        do p = t%p%rowptr(i), t%p%rowptr(i + 1) - 1
+          xf(i) = xf(i) + t%p%val(p) * xc(t%p%col(p))
+        end do
+      end do
+      return
+    end if
     xf(1:t%nc) = xf(1:t%nc) + xc
     do e = 1, t%nf - t%nc
       xf(t%nc + e) = xf(t%nc + e) + 0.5_dp * (xc(t%ends(1, e)) + xc(t%ends(2, e)))
@@ -890,6 +1144,7 @@ contains
       associate (t => h%transfer(l))
         if (allocated(t%ends)) bytes = bytes + 4_i8 * (size(t%ends, kind=i8) + size(t%cptr, kind=i8) + &
                                                        size(t%child, kind=i8))
+        if (allocated(t%p%val)) bytes = bytes + 24_i8 * size(t%p%val, kind=i8) + 4_i8 * (2 * t%nf + t%nc + 2)
       end associate
     end do
     if (.not. allocated(h%grid)) return

@@ -1,0 +1,347 @@
+!> Smoothed aggregation (Vanek, Mandel & Brezina 1996): the prolongation of one level of an
+!> algebraic multigrid hierarchy built from a symmetric positive (semi-)definite matrix alone,
+!> for meshes that come without a hierarchy of refinements (level 1 of a run, Gmsh meshes,
+!> adaptive steps).
+!>
+!>  1. strength of connection: j is a strong neighbour of i when
+!>     |a_ij| >= amg_strength_theta * sqrt(a_ii a_jj);
+!>  2. greedy aggregation in the three phases of Vanek-Mandel-Brezina: (1) a node none of
+!>     whose strong neighbours is aggregated yet starts an aggregate with all of them;
+!>     (2) the nodes left join the aggregate of a strong neighbour (the strongest one);
+!>     (3) the nodes still left form aggregates with their free strong neighbours (a node
+!>     without any strong neighbour is an aggregate of its own);
+!>  3. the tentative prolongation P_tent: piecewise constant per aggregate (the near kernel
+!>     of a scalar elliptic operator is the constants);
+!>  4. the smoothed prolongation P = (I - omega D_F^-1 A_F) P_tent with the filtered matrix
+!>     A_F (the weak connections lumped into the diagonal: row sums kept, fill limited to
+!>     the strong graph) and omega = 4 / (3 rho), rho = the Gershgorin bound
+!>     max_i sum_j |a^F_ij| / a^F_ii of rho(D_F^-1 A_F) (an upper bound, so omega is safe
+!>     without power iterations; on P1 and P2 Laplacians it is within 1.5 of rho).
+!> The Galerkin product P^T A P (amg_galerkin_pattern, amg_galerkin_values) is also used by
+!> the truncated multigrid, whose frozen unknowns are the zeroed rows of P
+!> (dualsig_solver_multigrid): the aggregation is built on the full matrix, all nodes
+!> included, and the truncation does the rest.
+!>
+!> Why an own aggregation and not hypre's BoomerAMG: hypre is packaged by Debian, but
+!> Debian's libhypre is built against MPI, and a sequential Fortran library that its legacy
+!> users link without MPI must not pull MPI in.
+module dualsig_amg_aggregation
+  use dualsig_kinds, only: dp
+  use dualsig_sparse, only: csr_t, rect_t
+  use dualsig_status, only: status_t
+  use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
+  implicit none
+  private
+
+  public :: amg_strength_theta, amg_coarsest_max
+  public :: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values
+
+  !> Strength threshold of the connection graph (0.08: Vanek-Mandel-Brezina's choice for
+  !> 2D; every edge of a P1 Laplacian on a shape-regular mesh is strong).
+  real(dp), parameter :: amg_strength_theta = 0.08_dp
+  !> Coarsening stops when a grid has at most this many unknowns (solved by CHOLMOD).
+  integer, parameter :: amg_coarsest_max = 2000
+
+contains
+
+  !> The smoothed-aggregation prolongation p (a%n x nc, module header) of the matrix a and
+  !> the aggregate agg(i) in 1..nc of every node.  st: DS_ERR_MEMORY when out of memory.
+  subroutine amg_prolongation(a, p, agg, st)
+    type(csr_t), intent(in) :: a
+    type(rect_t), intent(out) :: p
+    integer, allocatable, intent(out) :: agg(:)
+    type(status_t), intent(inout) :: st
+    logical, allocatable :: strong(:)
+    integer :: nagg, ist
+    allocate (strong(size(a%val)), agg(a%n), stat=ist)
+    if (alloc_failed(ist, st, 'the strength graph of the aggregation', size(a%val) + a%n, BYTES_INT)) return
+    call strength_graph(a, strong)
+    call aggregate(a, strong, agg, nagg)
+    call smooth_prolongation(a, strong, agg, nagg, p, st)
+  end subroutine amg_prolongation
+
+  !> strong(p) for every stored entry p of a: the off-diagonal entry is a strong connection.
+  pure subroutine strength_graph(a, strong)
+    type(csr_t), intent(in) :: a
+    logical, intent(out) :: strong(:)
+    integer :: i, p, j
+    do i = 1, a%n
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        j = a%col(p)
+        strong(p) = j /= i .and. abs(a%val(p)) >= amg_strength_theta * sqrt(abs(a%val(a%diag(i)) * a%val(a%diag(j))))
+      end do
+    end do
+  end subroutine strength_graph
+
+  !> The aggregate agg(i) in 1..nagg of every node (the three phases of the module header).
+  pure subroutine aggregate(a, strong, agg, nagg)
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: strong(:)
+    integer, intent(out) :: agg(:)
+    integer, intent(out) :: nagg
+    integer :: i, p, j, best
+    real(dp) :: w, wbest
+    logical :: free
+    agg = 0
+    nagg = 0
+    do i = 1, a%n                                     ! phase 1: whole free neighbourhoods
+      free = .true.
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (strong(p) .and. agg(a%col(p)) /= 0) free = .false.
+      end do
+      if (.not. free .or. agg(i) /= 0) cycle
+      if (.not. any(strong(a%rowptr(i):a%rowptr(i + 1) - 1))) cycle
+      nagg = nagg + 1
+      agg(i) = nagg
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (strong(p)) agg(a%col(p)) = nagg
+      end do
+    end do
+    do i = 1, a%n                                     ! phase 2: join the strongest aggregated neighbour
+      if (agg(i) /= 0) cycle
+      best = 0
+      wbest = -1.0_dp
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        j = a%col(p)
+        if (.not. strong(p) .or. agg(j) <= 0) cycle
+        w = abs(a%val(p))
+        if (w > wbest) then
+          wbest = w
+          best = agg(j)
+        end if
+      end do
+      if (best > 0) agg(i) = -best                    ! (negative: not a phase-1 node, see below)
+    end do
+    agg = abs(agg)
+    do i = 1, a%n                                     ! phase 3: the rest with their free neighbours
+      if (agg(i) /= 0) cycle
+      nagg = nagg + 1
+      agg(i) = nagg
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (strong(p) .and. agg(a%col(p)) == 0) agg(a%col(p)) = nagg
+      end do
+    end do
+  end subroutine aggregate
+
+  !> p = (I - omega D_F^-1 A_F) P_tent (module header), columns sorted in each row.
+  subroutine smooth_prolongation(a, strong, agg, nagg, p, st)
+    type(csr_t), intent(in) :: a
+    logical, intent(in) :: strong(:)
+    integer, intent(in) :: agg(:), nagg
+    type(rect_t), intent(out) :: p
+    type(status_t), intent(inout) :: st
+    real(dp), allocatable :: dfil(:), acc(:)
+    integer, allocatable :: pos(:), list(:)
+    real(dp) :: rho, s, omega
+    integer :: i, q, j, nnz, ist, cnt, k, c
+    allocate (dfil(a%n), acc(nagg), pos(nagg), list(nagg), p%rowptr(a%n + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the smoothed prolongation', 3 * a%n + 3 * nagg, BYTES_REAL)) return
+    rho = 0.0_dp
+    nnz = 0
+    do i = 1, a%n                         ! filtered diagonal, Gershgorin bound, row lengths
+      dfil(i) = a%val(a%diag(i))
+      s = 0.0_dp
+      do q = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (a%col(q) /= i .and. .not. strong(q)) dfil(i) = dfil(i) + a%val(q)
+        if (strong(q)) s = s + abs(a%val(q))
+      end do
+      if (.not. dfil(i) > 0.0_dp) dfil(i) = a%val(a%diag(i))
+      rho = max(rho, 1.0_dp + s / dfil(i))
+      nnz = nnz + count(strong(a%rowptr(i):a%rowptr(i + 1) - 1)) + 1
+    end do
+    omega = 4.0_dp / (3.0_dp * rho)
+    p%m = a%n
+    p%n = nagg
+    allocate (p%col(nnz), p%val(nnz), stat=ist)
+    if (alloc_failed(ist, st, 'the smoothed prolongation', 3 * nnz, BYTES_INT)) return
+    pos = 0
+    acc = 0.0_dp
+    nnz = 0
+    p%rowptr(1) = 1
+    do i = 1, a%n
+      cnt = 0
+      do q = a%rowptr(i), a%rowptr(i + 1) - 1
+        j = a%col(q)
+        if (j /= i .and. .not. strong(q)) cycle
+        c = agg(j)
+        if (pos(c) == 0) then
+          cnt = cnt + 1
+          list(cnt) = c
+          pos(c) = cnt
+        end if
+        if (j == i) then
+          acc(c) = acc(c) + 1.0_dp - omega
+        else
+          acc(c) = acc(c) - omega * a%val(q) / dfil(i)
+        end if
+      end do
+      call sort_ints(list(1:cnt))
+      do k = 1, cnt
+        c = list(k)
+        if (acc(c) /= 0.0_dp) then
+          nnz = nnz + 1
+          p%col(nnz) = c
+          p%val(nnz) = acc(c)
+        end if
+        acc(c) = 0.0_dp
+        pos(c) = 0
+      end do
+      p%rowptr(i + 1) = nnz + 1
+    end do
+  end subroutine smooth_prolongation
+
+  !> pt = p^T (n x m), columns sorted in each row.  st: DS_ERR_MEMORY.
+  subroutine amg_transpose(p, pt, st)
+    type(rect_t), intent(in) :: p
+    type(rect_t), intent(out) :: pt
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: fill(:)
+    integer :: i, q, c, nnz, ist
+    nnz = p%rowptr(p%m + 1) - 1
+    pt%m = p%n
+    pt%n = p%m
+    allocate (pt%rowptr(p%n + 1), fill(p%n), pt%col(nnz), pt%val(nnz), stat=ist)
+    if (alloc_failed(ist, st, 'the restriction of the aggregation', 2 * p%n + 3 * nnz, BYTES_INT)) return
+    fill = 0
+    do q = 1, nnz
+      fill(p%col(q)) = fill(p%col(q)) + 1
+    end do
+    pt%rowptr(1) = 1
+    do c = 1, p%n
+      pt%rowptr(c + 1) = pt%rowptr(c) + fill(c)
+    end do
+    fill = 0
+    do i = 1, p%m                             ! rows in increasing order: sorted columns
+      do q = p%rowptr(i), p%rowptr(i + 1) - 1
+        c = p%col(q)
+        pt%col(pt%rowptr(c) + fill(c)) = i
+        pt%val(pt%rowptr(c) + fill(c)) = p%val(q)
+        fill(c) = fill(c) + 1
+      end do
+    end do
+  end subroutine amg_transpose
+
+  !> The pattern of ac = P^T af P (values zero, columns sorted, diagonal present) for p and
+  !> its transpose pt.  st: DS_ERR_MEMORY.
+  subroutine amg_galerkin_pattern(p, pt, af, ac, st)
+    type(rect_t), intent(in) :: p, pt
+    type(csr_t), intent(in) :: af
+    type(csr_t), intent(out) :: ac
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: mark(:), list(:)
+    integer :: pass, ci, q, r, s, i, j, jc, cnt, lo, ist
+    integer :: nnz
+    allocate (mark(p%n), list(p%n), ac%rowptr(p%n + 1), ac%diag(p%n), stat=ist)
+    if (alloc_failed(ist, st, 'the pattern of a coarse operator', 4 * p%n, BYTES_INT)) return
+    ac%n = p%n
+    do pass = 1, 2
+      mark = 0
+      nnz = 0
+      ac%rowptr(1) = 1
+      do ci = 1, p%n
+        cnt = 1
+        list(1) = ci
+        mark(ci) = ci
+        do q = pt%rowptr(ci), pt%rowptr(ci + 1) - 1
+          i = pt%col(q)
+          do r = af%rowptr(i), af%rowptr(i + 1) - 1
+            j = af%col(r)
+            do s = p%rowptr(j), p%rowptr(j + 1) - 1
+              jc = p%col(s)
+              if (mark(jc) /= ci) then
+                mark(jc) = ci
+                cnt = cnt + 1
+                list(cnt) = jc
+              end if
+            end do
+          end do
+        end do
+        lo = nnz
+        nnz = nnz + cnt
+        ac%rowptr(ci + 1) = nnz + 1
+        if (pass == 2) then
+          call sort_ints(list(1:cnt))
+          ac%col(lo + 1:nnz) = list(1:cnt)
+          do r = lo + 1, nnz
+            if (ac%col(r) == ci) ac%diag(ci) = r
+          end do
+        end if
+      end do
+      if (pass == 1) then
+        allocate (ac%col(nnz), ac%val(nnz), stat=ist)
+        if (alloc_failed(ist, st, 'a coarse operator', 3 * nnz, BYTES_INT)) return
+        ac%val = 0.0_dp
+      end if
+    end do
+  end subroutine amg_galerkin_pattern
+
+  !> The values of ac = P_T^T af P_T on the pattern of amg_galerkin_pattern, P_T = p with
+  !> the rows of the frozen fine unknowns zeroed (frozen absent: none).  pos(p%n) is
+  !> scratch, zero on entry and on return; ok set .false. when an entry leaves the pattern.
+  !> rows present: only the coarse rows ci with rows(ci) are computed.
+  pure subroutine amg_galerkin_values(p, pt, af, ac, pos, ok, frozen, rows)
+    type(rect_t), intent(in) :: p, pt
+    type(csr_t), intent(in) :: af
+    type(csr_t), intent(inout) :: ac
+    integer, intent(inout) :: pos(:)
+    logical, intent(inout) :: ok
+    logical, intent(in), optional :: frozen(:)
+    logical, intent(in), optional :: rows(:)
+    integer :: ci, q, r, s, i, j, k, lo, hi
+    real(dp) :: wi, aij
+    logical :: truncated
+    truncated = present(frozen)
+    do ci = 1, p%n
+      if (present(rows)) then
+        if (.not. rows(ci)) cycle
+      end if
+      lo = ac%rowptr(ci)
+      hi = ac%rowptr(ci + 1) - 1
+      do k = lo, hi
+        pos(ac%col(k)) = k
+      end do
+      ac%val(lo:hi) = 0.0_dp
+      do q = pt%rowptr(ci), pt%rowptr(ci + 1) - 1
+        i = pt%col(q)
+        if (truncated) then
+          if (frozen(i)) cycle
+        end if
+        wi = pt%val(q)
+        do r = af%rowptr(i), af%rowptr(i + 1) - 1
+          j = af%col(r)
+          if (truncated) then
+            if (frozen(j)) cycle
+          end if
+          aij = wi * af%val(r)
+          do s = p%rowptr(j), p%rowptr(j + 1) - 1
+            k = pos(p%col(s))
+            if (k == 0) then
+              ok = .false.
+              cycle
+            end if
+            ac%val(k) = ac%val(k) + aij * p%val(s)
+          end do
+        end do
+      end do
+      do k = lo, hi
+        pos(ac%col(k)) = 0
+      end do
+    end do
+  end subroutine amg_galerkin_values
+
+  !> Sort a short integer list increasingly (insertion sort).
+  pure subroutine sort_ints(v)
+    integer, intent(inout) :: v(:)
+    integer :: i, j, key
+    do i = 2, size(v)
+      key = v(i)
+      j = i - 1
+      do while (j >= 1)
+        if (v(j) <= key) exit
+        v(j + 1) = v(j)
+        j = j - 1
+      end do
+      v(j + 1) = key
+    end do
+  end subroutine sort_ints
+end module dualsig_amg_aggregation
