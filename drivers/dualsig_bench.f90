@@ -59,6 +59,7 @@ program dualsig_bench
                                           assemble_equilibrium_global
   use dualsig_kinds, only: i8
   use dualsig_io_matrix_market, only: write_qp_matrix_market
+  use dualsig_scene_problem, only: analysis_problem_set_scene
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, analysis_t, level_result_t, &
                               analysis_start, analysis_next_level
   use dualsig_status, only: is_ok
@@ -277,14 +278,8 @@ contains
     ! the pipeline: grid sequencing, the active set with nested dissection from 1e4 unknowns,
     ! the feasible dual with the solvers' own tolerance; the P2 bounds are not timed here
     ! (bench_dual_p2 and the driver cover them), only the field and its error
-    allocate (pb%f, source=scene%f)
-    allocate (pb%u_exact, source=scene%u)
-    allocate (pb%grad_exact, source=scene%grad_u)
-    pb%kind = scene%problem
+    call analysis_problem_set_scene(pb, scene)
     pb%mesh = mesh
-    pb%gamma_u = scene%gamma_u_markers
-    pb%gamma_a = scene%gamma_a_markers
-    pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
     aset_pipeline%levels = lmax
     aset_pipeline%method = 'active_set'
     aset_pipeline%max_iter = 100
@@ -499,14 +494,7 @@ contains
     do s2 = 1, size(scenes)
       call scene_lookup(scenes(s2), scene, st)
       call mesh_rectangle(mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2**lvl, 2**lvl, 'right', st)
-      if (allocated(pb%f)) deallocate (pb%f, pb%u_exact, pb%grad_exact)
-      allocate (pb%f, source=scene%f)
-      allocate (pb%u_exact, source=scene%u)
-      allocate (pb%grad_exact, source=scene%grad_u)
-      pb%kind = scene%problem
-      pb%gamma_u = scene%gamma_u_markers
-      pb%gamma_a = scene%gamma_a_markers
-      pb%x_breaks = scene%x_breaks(1:scene%nbreaks)
+      call analysis_problem_set_scene(pb, scene)
       call primal_assemble(mesh, scene%problem, scene%f, tri_rule(5), sys, st=st)
       call primal_constraints(mesh, scene%problem, scene%gamma_u_markers, scene%gamma_a_markers, &
                               sys%kind, sys%bnd, st)
