@@ -816,6 +816,7 @@ def fair_main(args, names, seq_names):
     mg_seq = ds.get(('sequence', lmax))
     mg_cold = ds.get(('cold_multigrid', lmax))
     schur_cold = ds.get(('cold_schur', lmax))
+    amg_cold = ds.get(('cold_amg', lmax))
     if mg_seq is None or mg_cold is None:
         print('petsc_peers: %s has no level %d rows' % (dcsv, lmax))
         return 1
@@ -830,22 +831,28 @@ def fair_main(args, names, seq_names):
               % (dcmd, float(mg_cold['seconds']), mg_cold['iterations'],
                  '' if schur_cold is None else '; cold schur %.3f s (%s pivoting steps; the mesh as '
                  'one level, no hierarchy)' % (float(schur_cold['seconds']), schur_cold['iterations'])))
+        if amg_cold is not None:
+            print('  dualsig (%s): cold multigrid_amg %.3f s (%s V-cycles; the mesh as one level, no '
+                  'hierarchy: multigrid on the algebraic hierarchy it builds from the matrix, the '
+                  'set-up inside the time, as for PETSc)' % (dcmd, float(amg_cold['seconds']), amg_cold['iterations']))
         t_mg_cold = float(mg_cold['seconds'])
         t_schur = float(schur_cold['seconds']) if schur_cold is not None else float('nan')
-        print('  %-14s %9s %9s %5s %7s %10s %9s %9s %8s %12s %12s  %s' %
+        t_amg = float(amg_cold['seconds']) if amg_cold is not None else float('nan')
+        print('  %-14s %9s %9s %5s %7s %10s %9s %9s %8s %12s %12s %12s  %s' %
               ('PETSc solver', 'setup_s', 'solve_s', 'its', 'ksp_its', 'kkt', 'rel_diff', 'peak_MB',
-               'load', '/mg_cold', '/schur_cold', 'status'), flush=True)
+               'load', '/mg_cold', '/amg_cold', '/schur_cold', 'status'), flush=True)
         for name in names:
             r = run_one(name, prob, args)
             la = loadavg().split()[0]
             ok = r['status'] == 'converged'
             rm = r['solve_s'] / t_mg_cold
             rs = r['solve_s'] / t_schur
+            ra = r['solve_s'] / t_amg
             fmt = (lambda v: ('%.1fx' % v) if ok else ('>%.1fx' % v if v == v else '-'))
-            print('  %-14s %9.3f %9.3f %5d %7d %10.2e %9.1e %9.0f %8s %12s %12s  %s' %
+            print('  %-14s %9.3f %9.3f %5d %7d %10.2e %9.1e %9.0f %8s %12s %12s %12s  %s' %
                   (name, r['setup_s'], r['solve_s'], r['iterations'], r['ksp_iterations'], r['kkt'],
-                   r['rel_diff'], r.get('peak_mb', float('nan')), la, fmt(rm), fmt(rs), r['status']),
-                  flush=True)
+                   r['rel_diff'], r.get('peak_mb', float('nan')), la, fmt(rm), fmt(ra), fmt(rs),
+                   r['status']), flush=True)
             if r['status'] != 'converged':
                 print('    (the parent process held %.0f MB at the fork)' % r['parent_mb'])
             if 'traceback' in r:
@@ -853,7 +860,7 @@ def fair_main(args, names, seq_names):
             rows_out.append(['cold', scene, lmax, prob.n, name, '%.4f' % r['setup_s'],
                              '%.4f' % r['solve_s'], r['iterations'], r['ksp_iterations'],
                              '%.3e' % r['kkt'], '%.0f' % r.get('peak_mb', float('nan')), la,
-                             '%.4f' % t_mg_cold, '%.4f' % t_schur, r['status']])
+                             '%.4f' % t_mg_cold, '%.4f' % t_schur, r['status'], '%.4f' % t_amg])
     del prob
 
     t_seq = float(mg_seq['cumulative_s'])
@@ -898,7 +905,7 @@ def fair_main(args, names, seq_names):
                ('%.1fx' % ratio) if status == 'converged' else '-', status), flush=True)
         rows_out.append(['sequence', scene, lmax, '', name, '%.4f' % tot_setup, '%.4f' % tot,
                          r['iterations'], its_all, '%.3e' % r['kkt'], '%.0f' % peak, la,
-                         '%.4f' % t_seq, '', status])
+                         '%.4f' % t_seq, '', status, ''])
     print('\n  commands: make bench-peers PEER_LEVEL=%d PEER_SCENE=%s, i.e. %s && %s '
           '(solve_s: the solve phase; setup_s: PETSc Mat/Vec/solver creation from the CSR '
           'arrays, the analogue of dualsig\'s assembly, which is not timed either)'
@@ -913,7 +920,7 @@ def fair_main(args, names, seq_names):
             if new:
                 w.writerow(['comparison', 'scene', 'level', 'n', 'solver', 'setup_s', 'solve_s',
                             'iterations', 'ksp_or_all_iterations', 'kkt', 'peak_mb', 'load1',
-                            'dualsig_s', 'dualsig_schur_cold_s', 'status'])
+                            'dualsig_s', 'dualsig_schur_cold_s', 'status', 'dualsig_amg_cold_s'])
             w.writerows(rows_out)
         print('petsc_peers: %d row(s) appended to %s' % (len(rows_out), args.csv))
     return 0

@@ -10,9 +10,11 @@
 !>     PETSc can run the same grid sequence;
 !>  2. cold solves of the finest level's QP from x = 0: 'multigrid' on the same hierarchy
 !>     (its cold start is nested iteration on the restricted QPs: it uses the geometric
-!>     hierarchy, which the QP alone does not carry), and 'schur' on the finest mesh given as
-!>     one level (no hierarchy, the QP and the node coordinates only; skipped above
-!>     max_level_schur, where one CHOLMOD factorisation no longer fits the machine).
+!>     hierarchy, which the QP alone does not carry), and on the finest mesh given as one level
+!>     (no hierarchy, the QP and the node coordinates only): 'auto', i.e. multigrid on the
+!>     algebraic hierarchy built from the matrix ('multigrid_amg', what a user with a fine
+!>     Gmsh mesh gets), and 'schur' (skipped above max_level_schur, where one CHOLMOD
+!>     factorisation no longer fits the machine).
 !> Rows to standard output and out/peers/<scene>_dualsig.csv (read by petsc_peers.py --fair).
 !>
 !> Binary format (stream, native little-endian), all integers 32-bit:
@@ -124,31 +126,37 @@ contains
     write (csv, '(a,",cold_multigrid,",i0,",",i0,2(",",es12.4),",",i0,",",es12.4,",",f10.1)') scene_name, lmax, &
       an%mesh%nnode, t_cold, t_cold, mres%iterations, mres%kkt_residual, peak_memory_mb()
     deallocate (x)
-    call cold_schur(pb, an, lmax, scene_name, csv)
+    call cold_one_level(pb, an, lmax, scene_name, csv, 'auto')
+    if (lmax <= max_level_schur) then
+      call cold_one_level(pb, an, lmax, scene_name, csv, 'schur')
+    else
+      write (*, '(a,i0,a)') '  cold schur skipped above level ', max_level_schur, ' (one CHOLMOD factor does not fit)'
+    end if
     close (csv)
     call analysis_free(an)
     write (*, '(a)') 'dualsig_bench: table written to out/peers/' // scene_name // '_dualsig.csv'
   end subroutine bench_peers
 
-  !> Cold 'schur' on the finest mesh of `an` given as one level (zero start), to csv.
-  subroutine cold_schur(pb, an, lmax, scene_name, csv)
+  !> A cold solve (zero start) with `method` ('schur' or 'auto': multigrid on the algebraic
+  !> hierarchy) of the finest mesh of `an` given as one level, to csv as cold_schur or
+  !> cold_amg.
+  subroutine cold_one_level(pb, an, lmax, scene_name, csv, method)
     type(analysis_problem_t), intent(in) :: pb
     type(analysis_t), intent(in) :: an
     integer, intent(in) :: lmax, csv
-    character(len=*), intent(in) :: scene_name
+    character(len=*), intent(in) :: scene_name, method
     type(analysis_problem_t) :: pc
     type(analysis_settings_t) :: set
     type(analysis_t) :: an_cold
     type(level_result_t) :: rc
     type(status_t) :: st
-    if (lmax > max_level_schur) then
-      write (*, '(a,i0,a)') '  cold schur skipped above level ', max_level_schur, ' (one CHOLMOD factor does not fit)'
-      return
-    end if
+    character(len=:), allocatable :: label, steps
+    label = merge('schur', 'amg  ', method == 'schur')
+    steps = merge('pivoting steps', 'V-cycles      ', method == 'schur')
     pc = pb
     pc%mesh = an%mesh
     set%levels = 1
-    set%method = 'schur'
+    set%method = method
     set%tol = tol
     set%max_iter = 100
     set%ordering = ORDERING_GEOMETRIC
@@ -156,15 +164,15 @@ contains
     call analysis_start(an_cold, pc, set, st)
     if (is_ok(st)) call analysis_next_level(an_cold, rc, st)
     if (.not. is_ok(st)) then
-      write (*, '(a)') '  cold schur: ' // trim(st%msg)
+      write (*, '(a)') '  cold ' // trim(label) // ': ' // trim(st%msg)
       return
     end if
-    write (*, '(a,i0,a,f9.3,a,i0,a,es10.3)') '  cold schur (x = 0, the mesh as one level), level ', lmax, ': ', &
-      rc%primal_seconds, ' s, ', rc%primal_iters, ' pivoting steps, kkt ', rc%kkt_residual
-    write (csv, '(a,",cold_schur,",i0,",",i0,2(",",es12.4),",",i0,",",es12.4,",",f10.1)') scene_name, lmax, &
+    write (*, '(a,i0,a,f9.3,a,i0,a,es10.3)') '  cold ' // trim(rc%primal_method) // ' (x = 0, the mesh as one level), level ', &
+      lmax, ': ', rc%primal_seconds, ' s, ', rc%primal_iters, ' ' // trim(steps) // ', kkt ', rc%kkt_residual
+    write (csv, '(a,",cold_",a,",",i0,",",i0,2(",",es12.4),",",i0,",",es12.4,",",f10.1)') scene_name, trim(label), lmax, &
       rc%nnode, rc%primal_seconds, rc%primal_seconds, rc%primal_iters, rc%kkt_residual, peak_memory_mb()
     call analysis_free(an_cold)
-  end subroutine cold_schur
+  end subroutine cold_one_level
 
   !> The QP of sys with the solution x and the prolongation ends, in the binary format of
   !> the module header; ios /= 0 when the file cannot be written.
