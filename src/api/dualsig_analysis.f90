@@ -776,7 +776,7 @@ contains
     mset%tol = an%settings%tol
     mset%max_iter = min(an%settings%max_iter, mset%max_iter)
     if (res%primal_method == 'multigrid_amg') then
-      call mg_build_algebraic(amg, sys%a, st_solve)
+      call mg_build_algebraic(amg, sys%a, st_solve, an%mesh%xy)
       if (is_ok(st_solve)) call multigrid_solve(amg, sys%a, sys%load, sys%kind, sys%bnd, an%u, mset, mres, st_solve)
       call mg_clear(amg)
     else

@@ -9,7 +9,12 @@
 !>     whose strong neighbours is aggregated yet starts an aggregate with all of them;
 !>     (2) the nodes left join the aggregate of a strong neighbour (the strongest one);
 !>     (3) the nodes still left form aggregates with their free strong neighbours (a node
-!>     without any strong neighbour is an aggregate of its own);
+!>     without any strong neighbour is an aggregate of its own).  The nodes are visited in
+!>     the order given (amg_sweep_order: by the coordinates, row by row, when the caller
+!>     has them), else in their numbering.  The greedy phase 1 grows regular aggregates
+!>     when consecutive nodes are neighbours, as on a grid numbered row by row; a mesh
+!>     numbered by its refinements (the coarse nodes first, scattered) took 54 V-cycles at
+!>     2.6e5 unknowns in its numbering against 17 for the same grid numbered row by row;
 !>  3. the tentative prolongation P_tent: piecewise constant per aggregate (the near kernel
 !>     of a scalar elliptic operator is the constants);
 !>  4. the smoothed prolongation P = (I - omega D_F^-1 A_F) P_tent with the filtered matrix
@@ -34,7 +39,7 @@ module dualsig_amg_aggregation
   private
 
   public :: amg_strength_theta, amg_coarsest_max
-  public :: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values
+  public :: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values, amg_sweep_order
 
   !> Strength threshold of the connection graph (0.08: Vanek-Mandel-Brezina's choice for
   !> 2D; every edge of a P1 Laplacian on a shape-regular mesh is strong).
@@ -46,17 +51,29 @@ contains
 
   !> The smoothed-aggregation prolongation p (a%n x nc, module header) of the matrix a and
   !> the aggregate agg(i) in 1..nc of every node.  st: DS_ERR_MEMORY when out of memory.
-  subroutine amg_prolongation(a, p, agg, st)
+  !> order: the visiting order of the aggregation (a permutation of 1..a%n, e.g. from
+  !> amg_sweep_order); absent: the numbering.
+  subroutine amg_prolongation(a, p, agg, st, order)
     type(csr_t), intent(in) :: a
     type(rect_t), intent(out) :: p
     integer, allocatable, intent(out) :: agg(:)
     type(status_t), intent(inout) :: st
+    integer, intent(in), optional :: order(:)
     logical, allocatable :: strong(:)
-    integer :: nagg, ist
+    integer, allocatable :: natural(:)
+    integer :: nagg, ist, i
     allocate (strong(size(a%val)), agg(a%n), stat=ist)
     if (alloc_failed(ist, st, 'the strength graph of the aggregation', size(a%val) + a%n, BYTES_INT)) return
     call strength_graph(a, strong)
-    call aggregate(a, strong, agg, nagg)
+    if (present(order)) then
+      call aggregate(a, strong, order, agg, nagg)
+    else
+      allocate (natural(a%n), stat=ist)
+      if (alloc_failed(ist, st, 'the order of the aggregation', a%n, BYTES_INT)) return
+      natural = [(i, i = 1, a%n)]
+      call aggregate(a, strong, natural, agg, nagg)
+      deallocate (natural)
+    end if
     call smooth_prolongation(a, strong, agg, nagg, p, st)
   end subroutine amg_prolongation
 
@@ -73,18 +90,76 @@ contains
     end do
   end subroutine strength_graph
 
-  !> The aggregate agg(i) in 1..nagg of every node (the three phases of the module header).
-  pure subroutine aggregate(a, strong, agg, nagg)
+  !> The sweep order of nodes with coordinates xy(2, n): by y, equal y by x (row by row on
+  !> a structured grid whatever its numbering; a sweep upwards on an unstructured mesh).
+  !> A stable bottom-up merge sort.  st: DS_ERR_MEMORY.
+  subroutine amg_sweep_order(xy, order, st)
+    real(dp), intent(in) :: xy(:,:)
+    integer, allocatable, intent(out) :: order(:)
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: tmp(:)
+    integer :: n, width, lo, mid, hi, ist, i
+    n = size(xy, 2)
+    allocate (order(n), tmp(n), stat=ist)
+    if (alloc_failed(ist, st, 'the sweep order of the aggregation', 2 * n, BYTES_INT)) return
+    order = [(i, i = 1, n)]
+    width = 1
+    do while (width < n)
+      do lo = 1, n, 2 * width
+        mid = min(lo + width - 1, n)
+        hi = min(lo + 2 * width - 1, n)
+        if (mid < hi) call merge_runs(xy, order(lo:mid), order(mid + 1:hi), tmp(lo:hi))
+        if (mid < hi) order(lo:hi) = tmp(lo:hi)
+      end do
+      width = 2 * width
+    end do
+  end subroutine amg_sweep_order
+
+  !> Merge the sorted runs left and right (by y, then x; left first on ties) into out.
+  pure subroutine merge_runs(xy, left, right, out)
+    real(dp), intent(in) :: xy(:,:)
+    integer, intent(in) :: left(:), right(:)
+    integer, intent(out) :: out(:)
+    integer :: i, j, k
+    i = 1
+    j = 1
+    do k = 1, size(out)
+      if (j > size(right)) then
+        out(k) = left(i)
+        i = i + 1
+      else if (i > size(left)) then
+        out(k) = right(j)
+        j = j + 1
+      else if (before(right(j), left(i))) then
+        out(k) = right(j)
+        j = j + 1
+      else
+        out(k) = left(i)
+        i = i + 1
+      end if
+    end do
+  contains
+    pure logical function before(u, v)
+      integer, intent(in) :: u, v
+      before = xy(2, u) < xy(2, v) .or. (xy(2, u) == xy(2, v) .and. xy(1, u) < xy(1, v))
+    end function before
+  end subroutine merge_runs
+
+  !> The aggregate agg(i) in 1..nagg of every node (the three phases of the module header),
+  !> the nodes visited in the given order.
+  pure subroutine aggregate(a, strong, order, agg, nagg)
     type(csr_t), intent(in) :: a
     logical, intent(in) :: strong(:)
+    integer, intent(in) :: order(:)
     integer, intent(out) :: agg(:)
     integer, intent(out) :: nagg
-    integer :: i, p, j, best
+    integer :: i, k, p, j, best
     real(dp) :: w, wbest
     logical :: free
     agg = 0
     nagg = 0
-    do i = 1, a%n                                     ! phase 1: whole free neighbourhoods
+    do k = 1, a%n                                     ! phase 1: whole free neighbourhoods
+      i = order(k)
       free = .true.
       do p = a%rowptr(i), a%rowptr(i + 1) - 1
         if (strong(p) .and. agg(a%col(p)) /= 0) free = .false.
@@ -97,7 +172,8 @@ contains
         if (strong(p)) agg(a%col(p)) = nagg
       end do
     end do
-    do i = 1, a%n                                     ! phase 2: join the strongest aggregated neighbour
+    do k = 1, a%n                                     ! phase 2: join the strongest aggregated neighbour
+      i = order(k)
       if (agg(i) /= 0) cycle
       best = 0
       wbest = -1.0_dp
@@ -113,7 +189,8 @@ contains
       if (best > 0) agg(i) = -best                    ! (negative: not a phase-1 node, see below)
     end do
     agg = abs(agg)
-    do i = 1, a%n                                     ! phase 3: the rest with their free neighbours
+    do k = 1, a%n                                     ! phase 3: the rest with their free neighbours
+      i = order(k)
       if (agg(i) /= 0) cycle
       nagg = nagg + 1
       agg(i) = nagg

@@ -47,6 +47,7 @@ module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec
   use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values, &
+                                     amg_sweep_order, &
                                      amg_coarsest_max
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
                                   cholesky_free, ORDERING_AMD
@@ -239,15 +240,30 @@ contains
   !> dualsig_amg_aggregation) for a mesh without a hierarchy of refinements: grids are
   !> aggregated until one has at most amg_coarsest_max unknowns (at least one coarse grid
   !> when a%n > 1); grid l-1's operator is P^T A_l P, later truncated by the solve.
+  !> xy (2, a%n): the coordinates of the unknowns, when they are mesh nodes: the finest
+  !> aggregation then visits them row by row (amg_sweep_order), whatever their numbering;
+  !> without xy, in their numbering (coarse grids always in theirs, which follows the
+  !> finer sweep).
   !> st: DS_ERR_MEMORY; DS_ERR_NUMERIC when the matrix cannot be coarsened at all.
-  subroutine mg_build_algebraic(h, a, st)
+  subroutine mg_build_algebraic(h, a, st, xy)
     type(mg_hierarchy_t), intent(inout) :: h
     type(csr_t), intent(in) :: a
     type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: xy(:,:)
     type(mg_transfer_t), allocatable :: tr(:)
     type(csr_t), allocatable :: ops(:)
+    integer, allocatable :: order(:)
     integer :: nb, k, l, n, ierr
     call mg_clear(h)
+    if (present(xy)) then
+      if (size(xy, 2) /= a%n) then
+        call set_error(st, DS_ERR_NUMERIC, 'multigrid: ' // itoa(size(xy, 2)) // ' coordinates for a matrix of order ' &
+                       // itoa(a%n))
+        return
+      end if
+      call amg_sweep_order(xy, order, st)
+      if (.not. is_ok(st)) return
+    end if
     allocate (tr(amg_max_grids), ops(amg_max_grids), stat=ierr)   ! small: descriptors
     if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the hierarchy')
     if (ierr /= 0) return
@@ -255,7 +271,7 @@ contains
     n = a%n
     do while (nb < amg_max_grids - 1 .and. (n > amg_coarsest_max .or. nb == 0) .and. n > 1)
       if (nb == 0) then
-        call algebraic_grid(a, tr(nb + 1), ops(nb + 1), st)
+        call algebraic_grid(a, tr(nb + 1), ops(nb + 1), st, order)
       else
         call algebraic_grid(ops(nb), tr(nb + 1), ops(nb + 1), st)
       end if
@@ -289,15 +305,25 @@ contains
 
   !> One algebraic grid below the operator af: the transfer t (P by smoothed aggregation
   !> and P^T) and the coarse operator ac = P^T af P.
-  subroutine algebraic_grid(af, t, ac, st)
+  !> order: the visiting order of the aggregation (absent or unallocated: the numbering).
+  subroutine algebraic_grid(af, t, ac, st, order)
     type(csr_t), intent(in) :: af
     type(mg_transfer_t), intent(inout) :: t
     type(csr_t), intent(inout) :: ac
     type(status_t), intent(inout) :: st
+    integer, intent(in), optional, allocatable :: order(:)
     integer, allocatable :: pos(:)
     integer :: ierr
     logical :: ok
-    call amg_prolongation(af, t%p, t%agg, st)
+    if (present(order)) then
+      if (allocated(order)) then
+        call amg_prolongation(af, t%p, t%agg, st, order)
+      else
+        call amg_prolongation(af, t%p, t%agg, st)
+      end if
+    else
+      call amg_prolongation(af, t%p, t%agg, st)
+    end if
     if (is_ok(st)) call amg_transpose(t%p, t%pt, st)
     if (is_ok(st)) call amg_galerkin_pattern(t%p, t%pt, af, ac, st)
     if (.not. is_ok(st)) return
