@@ -28,7 +28,7 @@ module dualsig_analysis
   use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_mesh_adapt, only: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler
-  use dualsig_sparse_direct, only: ORDERING_AMD
+  use dualsig_sparse_direct, only: ORDERING_GEOMETRIC
   use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
   use dualsig_qp_types, only: BOUND_FIXED, BOUND_LOWER
@@ -151,7 +151,10 @@ module dualsig_analysis
     real(dp) :: tol = 1.0e-10_dp                  !! psor: relative KKT tolerance
     integer :: max_iter = 200000                  !! psor sweeps / active-set changes
     integer :: check_every = 10                   !! psor: sweeps between residuals
-    integer :: ordering = ORDERING_AMD            !! every CHOLMOD factorisation (ORDERING_* of dualsig_sparse_direct)
+    !> every CHOLMOD factorisation (ORDERING_* of dualsig_sparse_direct); the default, as the
+    !> batch driver's `nd`: geometric nested dissection from the points of the unknowns (AMD
+    !> below 1e4 unknowns)
+    integer :: ordering = ORDERING_GEOMETRIC
     logical :: dual = .true.                      !! dual analysis
     logical :: bounds = .true.                    !! with dual: the bounds from the dual field (off: the field only)
     !> keep the multigrid hierarchy (an%mg, with its coarsest factor) and the nested dual's state
