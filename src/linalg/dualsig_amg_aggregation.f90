@@ -32,7 +32,7 @@
 !> users link without MPI must not pull MPI in.
 module dualsig_amg_aggregation
   use dualsig_kinds, only: dp
-  use dualsig_sparse, only: csr_t, rect_t
+  use dualsig_sparse, only: csr_t, rect_t, csr_set_row_pattern, sort_small_ints
   use dualsig_status, only: status_t
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
@@ -252,7 +252,7 @@ contains
           acc(c) = acc(c) - omega * a%val(q) / dfil(i)
         end if
       end do
-      call sort_ints(list(1:cnt))
+      call sort_small_ints(list(1:cnt))
       do k = 1, cnt
         c = list(k)
         if (acc(c) /= 0.0_dp) then
@@ -336,13 +336,7 @@ contains
         lo = nnz
         nnz = nnz + cnt
         ac%rowptr(ci + 1) = nnz + 1
-        if (pass == 2) then
-          call sort_ints(list(1:cnt))
-          ac%col(lo + 1:nnz) = list(1:cnt)
-          do r = lo + 1, nnz
-            if (ac%col(r) == ci) ac%diag(ci) = r
-          end do
-        end if
+        if (pass == 2) call csr_set_row_pattern(ac, ci, lo, list(1:cnt))
       end do
       if (pass == 1) then
         allocate (ac%col(nnz), ac%val(nnz), stat=ist)
@@ -406,19 +400,4 @@ contains
     end do
   end subroutine amg_galerkin_values
 
-  !> Sort a short integer list increasingly (insertion sort).
-  pure subroutine sort_ints(v)
-    integer, intent(inout) :: v(:)
-    integer :: i, j, key
-    do i = 2, size(v)
-      key = v(i)
-      j = i - 1
-      do while (j >= 1)
-        if (v(j) <= key) exit
-        v(j + 1) = v(j)
-        j = j - 1
-      end do
-      v(j + 1) = key
-    end do
-  end subroutine sort_ints
 end module dualsig_amg_aggregation

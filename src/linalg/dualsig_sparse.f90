@@ -11,7 +11,7 @@ module dualsig_sparse
   private
 
   public :: csr_t, csr_pattern_from_edges, csr_pattern_from_cliques, csr_add, csr_add_block, &
-            csr_get, csr_matvec, csr_is_symmetric, csr_nnz
+            csr_get, csr_matvec, csr_is_symmetric, csr_nnz, csr_set_row_pattern, sort_small_ints
   public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t
 
   type :: csr_t
@@ -331,4 +331,34 @@ contains
       end do
     end do
   end function csr_is_symmetric
+  !> Row `row` of the pattern of a from the distinct columns `list` (any order): sorted into
+  !> a%col(lo+1:lo+size(list)), a%diag(row) set when the row holds its diagonal.  a%col and
+  !> a%diag are allocated by the caller (the Galerkin products' second pass).
+  pure subroutine csr_set_row_pattern(a, row, lo, list)
+    type(csr_t), intent(inout) :: a
+    integer, intent(in) :: row, lo
+    integer, intent(inout) :: list(:)
+    integer :: k
+    call sort_small_ints(list)
+    a%col(lo + 1:lo + size(list)) = list
+    do k = lo + 1, lo + size(list)
+      if (a%col(k) == row) a%diag(row) = k
+    end do
+  end subroutine csr_set_row_pattern
+
+  !> Sort a short integer list increasingly (insertion sort).
+  pure subroutine sort_small_ints(v)
+    integer, intent(inout) :: v(:)
+    integer :: i, j, key
+    do i = 2, size(v)
+      key = v(i)
+      j = i - 1
+      do while (j >= 1)
+        if (v(j) <= key) exit
+        v(j + 1) = v(j)
+        j = j - 1
+      end do
+      v(j + 1) = key
+    end do
+  end subroutine sort_small_ints
 end module dualsig_sparse

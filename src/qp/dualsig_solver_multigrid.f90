@@ -45,7 +45,7 @@
 !> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
-  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec
+  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec, csr_set_row_pattern
   use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values, &
                                      amg_sweep_order, &
                                      amg_coarsest_max
@@ -667,13 +667,7 @@ contains
         lo = nnz
         nnz = nnz + cnt
         ac%rowptr(ci + 1) = nnz + 1
-        if (pass == 2) then
-          call sort_ints(list(1:cnt))
-          ac%col(lo + 1:nnz) = list(1:cnt)
-          do k = lo + 1, nnz
-            if (ac%col(k) == ci) ac%diag(ci) = k
-          end do
-        end if
+        if (pass == 2) call csr_set_row_pattern(ac, ci, lo, list(1:cnt))
       end do
       if (pass == 1) then
         allocate (ac%col(nnz), ac%val(nnz), stat=ierr)
@@ -693,22 +687,6 @@ contains
       parent = t%ends(k, j - t%nc)
     end if
   end function parent
-
-  !> Sort a short integer list increasingly (insertion sort: coarse rows have ~7 entries).
-  pure subroutine sort_ints(v)
-    integer, intent(inout) :: v(:)
-    integer :: i, j, key
-    do i = 2, size(v)
-      key = v(i)
-      j = i - 1
-      do while (j >= 1)
-        if (v(j) <= key) exit
-        v(j + 1) = v(j)
-        j = j - 1
-      end do
-      v(j + 1) = key
-    end do
-  end subroutine sort_ints
 
   !> Row ci of ac = P_T^T af P_T on the pattern of galerkin_pattern, P_T the prolongation
   !> with the rows of the frozen fine unknowns zeroed (frozen absent: none).  pos(nc) is
