@@ -77,7 +77,7 @@ SUPPORT_MODDIR := $(call support_mod,$(BUILD))
 SUPPORT_OBJS   := $(patsubst %.f90,$(BLD)/support/%.o,$(notdir $(SUPPORT_SRCS)))
 # (test/pfunit.mk links build/debug/libdualsig_support.a and reads build/debug/support-mod)
 
-.PHONY: all lib support run check check-lite check-asan check-layers deps bench bench-quick bench-vtu bench-plots bench-peers bench-deps plots stress fuzz clean distclean
+.PHONY: all lib support run check check-lite check-asan check-layers deps bench bench-quick bench-vtu bench-plots bench-peers bench-p2-stream bench-deps plots stress fuzz clean distclean
 all: $(LIBRARY) $(DRIVER) $(SUPPORT_LIB)
 lib: $(LIBRARY)
 support: $(SUPPORT_LIB)
@@ -256,6 +256,18 @@ bench-vtu: deps
 	@bench/vtu_sizes.sh
 
 bin/dualsig_vtu_bench: bench/vtu_write.f90 $(LIBRARY) | bin
+	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
+
+# make bench-p2-stream   the linear P2 (stream-function) solve on the primal's multigrid
+#                        hierarchy against the linear P1 solve of the same mesh (level
+#                        P2STREAM_LEVEL = 9, about 10 s; doc/performance.md, the duals section)
+P2STREAM_LEVEL ?= 9
+bench-p2-stream: deps
+	@$(MAKE) all
+	@$(MAKE) -s bin/dualsig_p2_stream_bench
+	@./bin/dualsig_p2_stream_bench $(P2STREAM_LEVEL)
+
+bin/dualsig_p2_stream_bench: bench/p2_stream_bench.f90 $(LIBRARY) | bin
 	$(FC) $(STD_FLAGS) $(FFLAGS) -Iinclude $< -o $@ $(LIBRARY) $(LIBS)
 
 bench-plots:
