@@ -25,11 +25,9 @@ program dualsig_p2_stream_bench
   type(csr_t) :: a2, a1
   type(status_t) :: st
   type(mg_hierarchy_t) :: h1, h2
-  type(mg_settings_t) :: ms
-  type(mg_result_t) :: mr
   integer, allocatable :: kind2(:), kind1(:)
-  real(dp), allocatable :: f2(:), f1(:), bnd2(:), bnd1(:), x(:)
-  real(dp) :: t0, tols(2)
+  real(dp), allocatable :: f2(:), f1(:), bnd2(:), bnd1(:)
+  real(dp) :: tols(2)
   integer :: lvl, l, rep, lk, ios
   character(len=16) :: arg
   lvl = 9
@@ -62,24 +60,33 @@ program dualsig_p2_stream_bench
   tols = [1.0e-10_dp, 1.0e-4_dp]
   do rep = 1, 2
     do lk = 1, 2
-      ms%tol = tols(lk)
-      allocate (x(a1%n), source=0.0_dp)
-      t0 = wall_seconds()
-      call multigrid_solve(h1, a1, f1, kind1, bnd1, x, ms, mr, st)
-      write (*, '(a,es8.1,a,i4,a,f8.3,a,i0)') '  P1 linear, geometric  tol', tols(lk), ' V-cycles', mr%iterations, &
-        ' s', wall_seconds() - t0, ' status ', st%code
-      deallocate (x)
-      allocate (x(a2%n), source=0.0_dp)
-      t0 = wall_seconds()
-      call multigrid_solve(h2, a2, f2, kind2, bnd2, x, ms, mr, st)
-      write (*, '(a,es8.1,a,i4,a,f8.3,a,i0)') '  P2 linear, geometric  tol', tols(lk), ' V-cycles', mr%iterations, &
-        ' s', wall_seconds() - t0, ' status ', st%code
-      deallocate (x)
+      call timed_solve('P1', h1, a1, f1, kind1, bnd1, tols(lk))
+      call timed_solve('P2', h2, a2, f2, kind2, bnd2, tols(lk))
     end do
   end do
   call mg_clear(h1)
   call mg_clear(h2)
 contains
+  !> A linear solve from zero to the relative residual tol on the hierarchy h, timed.
+  subroutine timed_solve(label, h, a, f, kind, bnd, tol)
+    character(len=*), intent(in) :: label
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:), bnd(:), tol
+    integer, intent(in) :: kind(:)
+    type(mg_settings_t) :: ms
+    type(mg_result_t) :: mr
+    type(status_t) :: st
+    real(dp), allocatable :: x(:)
+    real(dp) :: t0
+    ms%tol = tol
+    allocate (x(a%n), source=0.0_dp)
+    t0 = wall_seconds()
+    call multigrid_solve(h, a, f, kind, bnd, x, ms, mr, st)
+    write (*, '(a,es8.1,a,i4,a,f8.3,a,i0)') '  ' // label // ' linear, geometric  tol', tol, ' V-cycles', &
+      mr%iterations, ' s', wall_seconds() - t0, ' status ', st%code
+  end subroutine timed_solve
+
   !> The P1 or P2 stiffness matrix of the mesh (edge-midpoint rule: exact for the quadratic
   !> integrands), the load vector of f = 1 and u = 0 on the boundary of the unit square.
   subroutine assemble(mesh, p2, a, f, kind, bnd)
