@@ -57,7 +57,7 @@ module dualsig_analysis
   public :: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t
   public :: analysis_start, analysis_next_level, analysis_free
   public :: load_degree, exact_degree, bound_degree_p1, bound_degree_p2, max_level_warnings
-  public :: dual_spaces
+  public :: dual_spaces, mg_auto_min_unknowns
   public :: analysis_progress
   public :: adapt_settings_t, analysis_next_step, analysis_adapt_stop, adapt_stop_text, certified_rel_error
   public :: ADAPT_GOING, ADAPT_STOP_TOL, ADAPT_STOP_NDOF, ADAPT_STOP_SECONDS, ADAPT_STOP_STEPS, adapt_max_steps

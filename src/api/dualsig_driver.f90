@@ -31,7 +31,7 @@ module dualsig_driver
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
                               analysis_start, analysis_next_level, exact_degree, analysis_next_step, &
                               analysis_adapt_stop, adapt_stop_text, certified_rel_error, ADAPT_GOING, &
-                              adapt_max_steps
+                              adapt_max_steps, mg_auto_min_unknowns
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
   use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
@@ -747,6 +747,10 @@ contains
       end if
     end do
     if (res%has_dual .and. .not. res%certified) run%uncertified = run%uncertified + 1
+    write (unit, '(a,i0,a,i0,a,i0,a)') '  primal level ' // itoa(res%level) // ': ' // trim(res%primal_method) // ', ', &
+      res%primal_iters, ' ' // trim(primal_steps(res%primal_method)) // ', ', res%primal_factorisations, ' ' // &
+      trim(merge('Galerkin updates', 'factorisations  ', index(res%primal_method, 'multigrid') == 1)) // ', ', &
+      res%ndof, ' unknowns'
     if (.not. res%has_dual) return
     if (run%problem%kind == PROBLEM_P1) then
       associate (d => res%dual_p1)
@@ -771,6 +775,22 @@ contains
       end associate
     end if
   end subroutine report_level
+
+  !> What primal_iters counts for a primal method (the column's unit).
+  pure function primal_steps(method) result(steps)
+    character(len=*), intent(in) :: method
+    character(len=:), allocatable :: steps
+    select case (trim(method))
+    case ('multigrid', 'multigrid_amg')
+      steps = 'V-cycles'
+    case ('schur')
+      steps = 'pivoting steps'
+    case ('active_set')
+      steps = 'active-set iterations'
+    case default
+      steps = 'sweeps'
+    end select
+  end function primal_steps
 
   !> The columns of the current table row from a level's result; rates are the observed
   !> orders against the previous row.
@@ -1002,11 +1022,18 @@ contains
       if (cfg%method == 'active_set') then
         parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (primal-dual active set, CHOLMOD, ' // &
           'ordering ' // trim(cfg%dual_ordering) // ')'
+      else if (cfg%method == 'multigrid') then
+        parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (multigrid: truncated nonsmooth ' // &
+          'Newton multigrid on the hierarchy of the uniform refinements, on a level without one on a ' // &
+          'smoothed-aggregation hierarchy (multigrid_amg); the method of each level in the level reports)'
       else if (cfg%method == 'schur' .or. cfg%method == 'auto') then
-        parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (' // trim(cfg%method) // &
-          ': one CHOLMOD factorisation, exact QP on the Schur complement of the bounded unknowns'
+        parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (' // trim(cfg%method) // ': '
+        if (cfg%method == 'auto') parts = parts // 'above ' // itoa(mg_auto_min_unknowns) // ' unknowns truncated ' // &
+          'nonsmooth Newton multigrid (the refinement hierarchy, or a smoothed-aggregation one on a level ' // &
+          'without it), else '
+        parts = parts // 'one CHOLMOD factorisation, exact QP on the Schur complement of the bounded unknowns'
         if (cfg%method == 'auto') parts = parts // ' when at most ' // itoa(boundary_schur_max_default) // &
-          ', else primal-dual active set'
+          ', else primal-dual active set; the method of each level in the level reports'
         parts = parts // '; ordering ' // trim(cfg%dual_ordering) // ')'
       else
         parts = 'parts run: mesh, assembly (' // matrices // '), primal solve (projected SOR'
@@ -1020,9 +1047,14 @@ contains
       end if
       dual_method = trim(cfg%dual_method)
       if (dual_method == 'default') dual_method = trim(merge('active_set', 'augmented ', scene%problem == PROBLEM_P1))
-      if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1 .and. cfg%dual_space == 'hdiv') then
+      if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1 .and. cfg%dual_space == 'hdiv' .and. &
+          cfg%dual_method == 'default') then
+        parts = parts // '; dual analysis: space hdiv (RT1 fields, q.nu >= 0 at boundary edge ends), active_set ' // &
+          'with a CHOLMOD factorisation on the first level, nested (multigrid-preconditioned CG from the ' // &
+          'previous level''s field) on uniformly refined levels; bounds (6.13), (6.14) from the feasible q'
+      else if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1 .and. cfg%dual_space == 'hdiv') then
         parts = parts // '; dual analysis: space hdiv (RT1 fields, q.nu >= 0 at boundary edge ends), ' // dual_method // &
-          ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
+          '; bounds (6.13), (6.14) from the feasible q'
       else if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1) then
         parts = parts // '; dual analysis: space paper (continuous P1 vector fields), ' // dual_method // &
           ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
