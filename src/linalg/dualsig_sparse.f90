@@ -106,7 +106,7 @@ contains
     type(csr_t), intent(out) :: a
     type(status_t), intent(out) :: st
     integer, allocatable :: cap(:), start(:), fill(:), cols(:)
-    integer :: k, m, c, r, i, p, q, nk, tmp, ist
+    integer :: k, m, c, r, i, p, nk, ist
     nk = size(cliques, 1)
     allocate (cap(n), start(n + 1), fill(n), stat=ist)
     if (alloc_failed(ist, st, 'the row counts of a sparse matrix', 3 * n, BYTES_INT)) return
@@ -141,16 +141,7 @@ contains
     if (alloc_failed(ist, st, 'the rows of a sparse matrix', 2 * n, BYTES_INT)) return
     a%rowptr(1) = 1
     do i = 1, n
-      do p = start(i) + 1, start(i) + fill(i) - 1
-        tmp = cols(p)
-        q = p - 1
-        do while (q >= start(i))
-          if (cols(q) <= tmp) exit
-          cols(q + 1) = cols(q)
-          q = q - 1
-        end do
-        cols(q + 1) = tmp
-      end do
+      call sort_small_ints(cols(start(i):start(i) + fill(i) - 1))
       k = 1
       do p = start(i) + 1, start(i) + fill(i) - 1
         if (cols(p) /= cols(start(i) + k - 1)) then
