@@ -305,25 +305,18 @@ contains
 
   !> One algebraic grid below the operator af: the transfer t (P by smoothed aggregation
   !> and P^T) and the coarse operator ac = P^T af P.
-  !> order: the visiting order of the aggregation (absent or unallocated: the numbering).
+  !> order: the visiting order of the aggregation (absent, or an unallocated actual
+  !> argument: the numbering).
   subroutine algebraic_grid(af, t, ac, st, order)
     type(csr_t), intent(in) :: af
     type(mg_transfer_t), intent(inout) :: t
     type(csr_t), intent(inout) :: ac
     type(status_t), intent(inout) :: st
-    integer, intent(in), optional, allocatable :: order(:)
+    integer, intent(in), optional :: order(:)
     integer, allocatable :: pos(:)
     integer :: ierr
     logical :: ok
-    if (present(order)) then
-      if (allocated(order)) then
-        call amg_prolongation(af, t%p, t%agg, st, order)
-      else
-        call amg_prolongation(af, t%p, t%agg, st)
-      end if
-    else
-      call amg_prolongation(af, t%p, t%agg, st)
-    end if
+    call amg_prolongation(af, t%p, t%agg, st, order)
     if (is_ok(st)) call amg_transpose(t%p, t%pt, st)
     if (is_ok(st)) call amg_galerkin_pattern(t%p, t%pt, af, ac, st)
     if (.not. is_ok(st)) return
