@@ -312,11 +312,11 @@ contains
     if (settings%dual_method == 'default' .and. problem%kind == PROBLEM_P1 .and. settings%dual_space == 'hdiv') &
       method = 'nested'
     if (settings%dual) then
-      if ((problem%kind == PROBLEM_P1 .and. method == 'augmented') .or. &
+      if ((problem%kind == PROBLEM_P1 .and. (method == 'augmented' .or. method == 'multigrid')) .or. &
           (problem%kind /= PROBLEM_P1 .and. (method == 'active_set' .or. method == 'nested')) .or. &
           (problem%kind == PROBLEM_P1 .and. method == 'nested' .and. settings%dual_space /= 'hdiv')) then
         call set_error(st, DS_ERR_INPUT, "analysis: dual method '" // method // "' does not apply to problem P" // &
-          itoa(problem%kind) // '; P1: active_set, uzawa or nested (space hdiv), P2: augmented or uzawa')
+          itoa(problem%kind) // '; P1: active_set, uzawa or nested (space hdiv), P2: augmented, multigrid or uzawa')
         return
       end if
     end if
@@ -993,10 +993,10 @@ contains
       res%dual_seconds = wall_seconds()
       if (allocated(pb%x_breaks)) then
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           pb%x_breaks, an%u, load=load)
+                           pb%x_breaks, an%u, load=load, mg=an%mg)
       else
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           u_primal=an%u, load=load)
+                           u_primal=an%u, load=load, mg=an%mg)
       end if
       res%dual_seconds = wall_seconds() - res%dual_seconds
       res%dual_limit = is_warning(st_dual)

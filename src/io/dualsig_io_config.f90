@@ -1251,9 +1251,9 @@ contains
     else if (cfg%check_every < 1) then
       call set_error(st, DS_ERR_INPUT, where // '&solver check_every must be >= 1')
     else if (.not. any(cfg%dual_method == [character(len=16) :: 'default', 'active_set', 'augmented', 'uzawa', &
-                                            'nested'])) then
+                                            'nested', 'multigrid'])) then
       call set_error(st, DS_ERR_INPUT, where // '&dual method = "' // trim(cfg%dual_method) // &
-        '"; expected default, active_set (P1), nested (P1, space hdiv), augmented (P2) or uzawa')
+        '"; expected default, active_set (P1), nested (P1, space hdiv), augmented (P2), multigrid (P2) or uzawa')
     else if (.not. cfg%dual_rho >= 0.0_dp) then
       call set_error(st, DS_ERR_INPUT, where // '&dual rho = ' // rtoa(cfg%dual_rho) // &
         '; expected rho > 0, or 0 for the automatic choice')

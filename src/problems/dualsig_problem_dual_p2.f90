@@ -16,6 +16,10 @@
 !>   once by CHOLMOD, the Gamma_a rows are simple bounds handled inside each outer step by
 !>   the inner solver: 'schur' (their dense Schur complement, exact QP on it) or
 !>   'active_set' (dualsig_solver_augmented);
+!> - 'multigrid': the divergence-free part as the curl of a continuous P2 stream function,
+!>   the Gamma_a rows by a primal-dual active set, each step one linear multigrid solve
+!>   (dualsig_dual_p2_stream): O(N) time and memory, no factorisation; simply connected
+!>   domains and the polynomial lambda^f;
 !> - 'uzawa': the paper's Uzawa on (4.8) in the element parameters, with free multipliers
 !>   for D (divergence and continuity rows) and non-negative ones for E (Gamma_a), each
 !>   iteration an element-local solve with the factored A_e (LAPACK).  Its iterate is made
@@ -44,6 +48,8 @@ module dualsig_problem_dual_p2
   use dualsig_load_data, only: load_data_t, load_data_build
   use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_coefficients, bubble_value
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
+  use dualsig_solver_multigrid, only: mg_hierarchy_t
+  use dualsig_dual_p2_stream, only: stream_settings_t, stream_result_t, stream_dual_solve
   use dualsig_strings, only: itoa
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
@@ -123,7 +129,7 @@ contains
   !> u_primal (optional, nnode): the primal solution on the same mesh; by complementarity
   !> (lambda . nu u = 0 on Gamma_a) the dual constraint is predicted active where u > 0,
   !> which starts the active-set method near its solution.
-  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load)
+  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load, mg)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     logical, intent(in) :: is_gamma_a(:)
@@ -135,6 +141,7 @@ contains
     real(dp), intent(in), optional :: breaks(:)   !! abscissae of kinks of f (see particular field)
     real(dp), intent(in), optional :: u_primal(:)
     type(load_data_t), intent(in), optional :: load   !! polynomial lambda^f: the load data (built when absent)
+    type(mg_hierarchy_t), intent(in), optional :: mg  !! 'multigrid': the primal's geometric hierarchy, if any
     type(equilibrium_map_t) :: map
     real(dp), allocatable :: ae(:,:,:), d(:,:), be(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:), gh(:,:)
     logical, allocatable :: on_gamma_a(:)
@@ -219,6 +226,10 @@ contains
       res%ordering = ares%ordering
       res%nactive = ares%nactive
       res%residual = ares%kkt_residual
+    case ('multigrid')
+      call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg)
+      if (.not. is_ok(st)) return
+      where (on_gamma_a) x = max(x, bnd)
     case ('uzawa')
       call blocks%factor(ae, st)
       if (st%code /= 0) return
@@ -246,7 +257,7 @@ contains
       where (on_gamma_a) x = max(x, bnd)
     case default
       call set_error(st, DS_ERR_INPUT, 'dual P2: unknown method "' // trim(settings%method) // &
-        '"; expected augmented or uzawa')
+        '"; expected augmented, multigrid or uzawa')
       return
     end select
     ! the solver's defect, then exact equilibration on Gamma_u and interior edges (own status:
@@ -262,6 +273,42 @@ contains
     res%defect = divergence_defect(d, field%beta)
     res%seconds_solver = lap(t0)
   end subroutine dual_p2_solve
+
+  !> method 'multigrid': the dual by its stream function (dualsig_dual_p2_stream), for the
+  !> polynomial lambda^f (zero flux on Gamma_a); x: the edge-end fluxes.
+  subroutine stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg)
+    type(mesh_t), intent(in) :: mesh
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: be(:,:)
+    logical, intent(in) :: is_gamma_a(:)
+    type(dual_p2_settings_t), intent(in) :: settings
+    real(dp), intent(out) :: x(:)
+    type(dual_p2_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    real(dp), intent(in), optional :: u_primal(:)
+    type(mg_hierarchy_t), intent(in), optional :: mg
+    type(stream_settings_t) :: sset
+    type(stream_result_t) :: sres
+    real(dp), allocatable :: bx(:)
+    integer :: ist
+    if (trim(settings%particular) /= 'polynomial') then
+      call set_error(st, DS_ERR_INPUT, 'dual P2: method multigrid needs &dual particular = ''polynomial'' (a ' // &
+        'particular field without flux on Gamma_a), not ''' // trim(settings%particular) // '''')
+      return
+    end if
+    allocate (bx(2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium load', 2 * mesh%nedge, BYTES_REAL)) return
+    call equilibrium_to_global(map, be, bx)
+    call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal)
+    if (.not. is_ok(st)) return
+    res%iterations = sres%steps
+    res%inner = 'multigrid'
+    if (.not. sres%geometric) res%inner = 'multigrid_amg'
+    res%inner_iterations = sres%vcycles
+    res%converged = sres%converged
+    res%nactive = sres%nactive
+    res%ordering = 'none'
+  end subroutine stream_method
 
   !> The polynomial particular field (dualsig_dual_p2_field): flux parameters beta_f of a
   !> piecewise linear field with outward flux -f_T |T| through the boundary of every

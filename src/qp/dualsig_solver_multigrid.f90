@@ -55,12 +55,13 @@ module dualsig_solver_multigrid
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   use dualsig_strings, only: itoa
-  use dualsig_alloc, only: alloc_failed, BYTES_LOGICAL
+  use dualsig_alloc, only: alloc_failed, BYTES_LOGICAL, BYTES_INT, BYTES_REAL
   implicit none
   private
 
   public :: mg_hierarchy_t, mg_settings_t, mg_result_t
-  public :: mg_reset, mg_add_level, mg_clear, multigrid_solve, mg_memory_bytes, mg_build_algebraic
+  public :: mg_reset, mg_add_level, mg_clear, multigrid_solve, mg_memory_bytes, mg_build_algebraic, mg_extend_algebraic, &
+            mg_finest_size
 
   !> Most grids of an algebraic hierarchy (coarsening by ~9 per grid in 2D: never reached).
   integer, parameter :: amg_max_grids = 25
@@ -204,6 +205,12 @@ contains
   end subroutine mg_add_level
 
   !> Nodes of the finest grid of the hierarchy (0 without one).
+  pure integer function mg_finest_size(h) result(n)
+    type(mg_hierarchy_t), intent(in) :: h
+    n = finest_size(h)
+  end function mg_finest_size
+
+  !> Nodes of the finest grid of the hierarchy (0 without one).
   pure integer function finest_size(h) result(n)
     type(mg_hierarchy_t), intent(in) :: h
     n = 0
@@ -302,6 +309,88 @@ contains
       if (ierr /= 0) return
     end do
   end subroutine mg_build_algebraic
+
+  !> dst = the grids of src (each transfer as a general sparse prolongation) and one finer
+  !> grid whose prolongation from src's finest grid is p (p%m x p%n, p%n the finest size of
+  !> src): e.g. P1 -> P2 of the finest mesh composed with a change of basis on the P2
+  !> unknowns (the stream function of the P2 dual, dualsig_dual_p2_stream).  The aggregate
+  !> of a fine node (restrict_bounds) is the coarse node of its largest weight.  src is not
+  !> changed; dst's coarse operators are built by its first solve.
+  !> st: DS_ERR_INPUT (src without a grid, p of the wrong width), DS_ERR_MEMORY.
+  subroutine mg_extend_algebraic(src, p, dst, st)
+    type(mg_hierarchy_t), intent(in) :: src
+    type(rect_t), intent(in) :: p
+    type(mg_hierarchy_t), intent(inout) :: dst
+    type(status_t), intent(out) :: st
+    integer :: l, ierr
+    call mg_clear(dst)
+    if (src%nlevel < 1 .or. p%n /= finest_size(src)) then
+      call set_error(st, DS_ERR_INPUT, 'multigrid: a prolongation of width ' // itoa(p%n) // ' added to a hierarchy ' // &
+        'whose finest grid has ' // itoa(finest_size(src)) // ' nodes')
+      return
+    end if
+    allocate (dst%transfer(src%nlevel + 1), stat=ierr)   ! small: descriptors
+    if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the hierarchy')
+    if (ierr /= 0) return
+    dst%nlevel = src%nlevel + 1
+    dst%n1 = src%n1
+    do l = 2, src%nlevel
+      associate (ts => src%transfer(l), td => dst%transfer(l))
+        if (ts%algebraic) then
+          td%p = ts%p
+        else
+          call red_prolongation(ts, td%p, st)
+        end if
+        if (is_ok(st)) call general_transfer(td, st)
+      end associate
+      if (.not. is_ok(st)) return
+    end do
+    dst%transfer(dst%nlevel)%p = p
+    call general_transfer(dst%transfer(dst%nlevel), st)
+  end subroutine mg_extend_algebraic
+
+  !> The transfer t with t%p set: t%pt, the sizes and the aggregates (largest weight).
+  subroutine general_transfer(t, st)
+    type(mg_transfer_t), intent(inout) :: t
+    type(status_t), intent(inout) :: st
+    integer :: i, ist
+    t%algebraic = .true.
+    t%nf = t%p%m
+    t%nc = t%p%n
+    call amg_transpose(t%p, t%pt, st)
+    if (.not. is_ok(st)) return
+    allocate (t%agg(t%nf), stat=ist)
+    if (alloc_failed(ist, st, 'the aggregates of a grid', t%nf, BYTES_INT)) return
+    do i = 1, t%nf
+      t%agg(i) = 1
+      if (t%p%rowptr(i + 1) > t%p%rowptr(i)) &
+        t%agg(i) = t%p%col(t%p%rowptr(i) - 1 + maxloc(abs(t%p%val(t%p%rowptr(i):t%p%rowptr(i + 1) - 1)), 1))
+    end do
+  end subroutine general_transfer
+
+  !> The prolongation of a red refinement (module header) as a sparse matrix.
+  subroutine red_prolongation(t, p, st)
+    type(mg_transfer_t), intent(in) :: t
+    type(rect_t), intent(out) :: p
+    type(status_t), intent(inout) :: st
+    integer :: i, e, ist
+    p%m = t%nf
+    p%n = t%nc
+    allocate (p%rowptr(t%nf + 1), p%col(t%nc + 2 * (t%nf - t%nc)), p%val(t%nc + 2 * (t%nf - t%nc)), stat=ist)
+    if (alloc_failed(ist, st, 'a prolongation', 3_i8 * t%nf, BYTES_REAL)) return
+    p%rowptr(1) = 1
+    do i = 1, t%nc
+      p%col(i) = i
+      p%val(i) = 1.0_dp
+      p%rowptr(i + 1) = i + 1
+    end do
+    do e = 1, t%nf - t%nc
+      i = t%nc + 2 * e - 1
+      p%col(i:i + 1) = [minval(t%ends(:, e)), maxval(t%ends(:, e))]
+      p%val(i:i + 1) = 0.5_dp
+      p%rowptr(t%nc + e + 1) = i + 2
+    end do
+  end subroutine red_prolongation
 
   !> One algebraic grid below the operator af: the transfer t (P by smoothed aggregation
   !> and P^T) and the coarse operator ac = P^T af P.

@@ -1,0 +1,557 @@
+!> The P2 equilibrium dual (4.5) by its stream function and multigrid: O(N) time and memory
+!> (issue 16 item 3; doc/theory.md, "The P2 dual by a stream function").
+!>
+!> With the polynomial particular field (lambda^f . nu = 0 on Gamma_a) the dual asks for the
+!> divergence-free BDM1 field q (the equilibrium elements, continuity built in) minimising
+!> 1/2 ||q||^2 + (lambda^f, q) with q . nu >= 0 at both ends of every Gamma_a edge.  On a
+!> simply connected domain these fields are q = curl psi = (d psi/dy, -d psi/dx) with psi
+!> continuous P2, unique up to a constant, and ||q||^2 = ||grad psi||^2.  The normal flux
+!> of q at an end of an edge is the derivative of psi along the edge, so in the P2 values
+!> psi (the vertices 1..nnode, then the edge midpoints nnode + e) the dual is
+!>
+!>     minimise 1/2 psi^T K psi - F^T psi   subject to  (G psi)_k >= 0 on Gamma_a,
+!>
+!> K the P2 stiffness matrix, G the map from psi to the global edge-end fluxes x of
+!> dualsig_assembly_equilibrium (x = G psi, F = G^T b_x).  Sign convention of G: for edge e
+!> with ends n1 < n2 and t = (x(n2) - x(n1)) / L, x(2e-1) and x(2e) are s_e d psi / dt at
+!> n1 and n2, s_e = +1 when the triangle edge_tri(1, e) runs along the edge from n1 to n2
+!> (its outward normal n_e is then t turned clockwise, and d psi / dt = curl psi . n_e).
+!>
+!> On a Gamma_a edge with ends a -> b in boundary order (domain on the left: d/dt is then
+!> curl psi . nu) and midpoint m the two rows are
+!>     c_1 = (-3 psi_a + 4 psi_m - psi_b) / L >= 0,   c_2 = (psi_a - 4 psi_m + 3 psi_b) / L >= 0,
+!> three values, chained along Gamma_a: not bounds.  A primal-dual active set handles them:
+!> with the set A of active rows fixed, the rows of A are eliminated by a change of basis
+!> psi = R z (one active row: psi_m = (3 psi_a + psi_b) / 4 resp. (psi_a + 3 psi_b) / 4;
+!> both: psi constant on the edge, a and b merged into one unknown, so a run of separated
+!> Gamma_a edges becomes one unknown), and R^T K R z = R^T F is solved by multigrid: the
+!> geometric hierarchy of the primal with one more grid P1 -> z of the finest mesh
+!> (mg_extend_algebraic), or smoothed aggregation on R^T K R without one.  The multipliers
+!> of A follow from K psi - F = C_A^T mu along each chain of Gamma_a edges (mu_of_chains);
+!> a row leaves A when its multiplier is negative and joins it when it is violated.  The
+!> start is the primal's contact set (complementarity: the flux vanishes where u_h > 0).
+!> The set is accepted when no multiplier is negative and no flux below -violation_tol
+!> max|x|; what is left is removed by make_monotone, which keeps q a curl (exactly
+!> divergence-free), so the field is admissible whatever the accuracy reached here, and the
+!> caller's clipping and equilibration (as for every solver) only meet rounding.
+!> psi's constant is fixed by a shift of the diagonal (constant_shift), not by a node.
+module dualsig_dual_p2_stream
+  use dualsig_kinds, only: dp, i8
+  use dualsig_mesh, only: mesh_t
+  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, rect_matvec, rect_from_triplets, csr_pattern_from_cliques, &
+                            csr_add_block
+  use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_pattern, amg_galerkin_values
+  use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, multigrid_solve, mg_clear, &
+                                      mg_build_algebraic, mg_extend_algebraic, mg_finest_size
+  use dualsig_qp_types, only: BOUND_FREE
+  use dualsig_status, only: status_t, set_error, set_warning, is_ok, is_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
+                            DS_WARN_NOT_CONVERGED
+  use dualsig_strings, only: itoa
+  use dualsig_alloc, only: alloc_failed, BYTES_REAL, BYTES_INT
+  implicit none
+  private
+
+  public :: stream_settings_t, stream_result_t, stream_dual_solve, stream_flux_matrix, stream_stiffness, &
+            stream_gamma_a_rows, stream_gamma_rows_t
+
+  !> A row of A leaves the active set when its multiplier is below -release_tol max|mu|, a
+  !> free row joins it when its flux is below -violation_tol max|x| (the linear solves are
+  !> inexact: smaller values are solver noise, and the caller's clipping removes them).
+  real(dp), parameter :: release_tol = 1.0e-8_dp
+  real(dp), parameter :: violation_tol = 1.0e-6_dp
+  !> psi is defined up to a constant, R^T K R is semi-definite (R maps constants to
+  !> constants; F = G^T b_x is orthogonal to them, G 1 = 0).  Its diagonal is raised by this
+  !> fraction: the constants get a small positive energy, which every grid represents
+  !> exactly (the prolongations keep constants), so multigrid keeps its h-independent rate;
+  !> the non-constant part of psi moves by about this fraction times the condition number
+  !> (1e-12 N; measured: est changes by 1e-9 relative at 10^6 unknowns).  Fixing the value
+  !> of one node instead leaves near-constant modes of tiny energy that the coarse grids
+  !> cannot correct: 25 V-cycles instead of 12 at 10^6 unknowns.
+  real(dp), parameter :: constant_shift = 1.0e-12_dp
+
+  type :: stream_settings_t
+    real(dp) :: tol = 1.0e-10_dp     !! relative residual of each linear multigrid solve
+    integer :: max_steps = 30        !! active-set steps
+  end type stream_settings_t
+
+  type :: stream_result_t
+    integer :: steps = 0             !! active-set steps (linear solves)
+    integer :: vcycles = 0           !! multigrid iterations over all steps
+    integer :: unknowns = 0          !! P2 values of psi
+    integer :: nactive = 0           !! active Gamma_a rows at the end
+    integer :: nrows = 0             !! Gamma_a rows
+    logical :: geometric = .false.   !! the primal's geometric hierarchy was used (else aggregation)
+    logical :: converged = .false.   !! the active set settled and the last solve converged
+  end type stream_result_t
+
+  !> The Gamma_a edges in boundary order: edge k has ends a(k) -> b(k) (domain on the left),
+  !> midpoint m(k) (a P2 index), length len(k), fluxes x(dof(1:2, k)) at a and b, and
+  !> predecessor prev(k) (0: the previous boundary edge is not on Gamma_a).
+  type :: stream_gamma_rows_t
+    integer :: n = 0
+    integer, allocatable :: a(:), b(:), m(:), dof(:,:), prev(:)
+    real(dp), allocatable :: len(:)
+  end type stream_gamma_rows_t
+
+contains
+
+  !> Solve the dual (module header) for the edge-end fluxes x (2 nedge) of q = curl psi.
+  !> bx: the load of the fluxes (dualsig_problem_dual_p2, lambda^f polynomial);
+  !> mg: the primal's geometric hierarchy (its finest grid the mesh's nodes), when there is
+  !> one; u_primal: the primal solution, for the start of the active set.
+  !> st: DS_ERR_INPUT (a domain with holes), DS_ERR_MEMORY, DS_ERR_NUMERIC;
+  !> DS_WARN_NOT_CONVERGED when the active set did not settle or a solve stopped early.
+  subroutine stream_dual_solve(mesh, bx, is_gamma_a, x, settings, res, st, mg, u_primal)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: bx(:)
+    logical, intent(in) :: is_gamma_a(:)
+    real(dp), intent(out) :: x(:)
+    type(stream_settings_t), intent(in) :: settings
+    type(stream_result_t), intent(out) :: res
+    type(status_t), intent(out) :: st
+    type(mg_hierarchy_t), intent(in), optional :: mg
+    real(dp), intent(in), optional :: u_primal(:)
+    type(rect_t) :: g
+    type(csr_t) :: k
+    type(stream_gamma_rows_t) :: rows
+    real(dp), allocatable :: f(:), psi(:), r(:), mu(:,:)
+    logical, allocatable :: active(:,:), next(:,:)
+    integer :: n2, step, ist
+    logical :: last_ok
+
+    if (mesh%nloop /= 1) then
+      call set_error(st, DS_ERR_INPUT, 'dual P2, method multigrid: the stream function needs a simply connected ' // &
+        'domain (this mesh has ' // itoa(mesh%nloop - 1) // ' holes); use &dual method = ''augmented''')
+      return
+    end if
+    n2 = mesh%nnode + mesh%nedge
+    res%unknowns = n2
+    call stream_flux_matrix(mesh, g, st)
+    if (is_ok(st)) call stream_stiffness(mesh, k, st)
+    if (is_ok(st)) call stream_gamma_a_rows(mesh, is_gamma_a, rows, st)
+    if (.not. is_ok(st)) return
+    res%nrows = 2 * rows%n
+    allocate (f(n2), psi(n2), r(n2), mu(2, rows%n), active(2, rows%n), next(2, rows%n), stat=ist)
+    if (alloc_failed(ist, st, 'the stream function', 3_i8 * n2 + 4_i8 * rows%n, BYTES_REAL)) return
+    call transpose_matvec(g, bx, f)
+    active = .false.
+    if (present(u_primal)) then
+      active(1, :) = u_primal(rows%a) > 0.0_dp
+      active(2, :) = u_primal(rows%b) > 0.0_dp
+    end if
+    psi = 0.0_dp
+    last_ok = .false.
+    do step = 1, settings%max_steps
+      res%steps = step
+      call solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, st, mg)
+      if (.not. is_ok(st)) return
+      call rect_matvec(g, psi, x)
+      call csr_matvec(k, psi, r)
+      r = r - f
+      call mu_of_chains(rows, active, r, mu)
+      call next_active(rows, active, mu, x, next)
+      if (all(next .eqv. active)) then
+        res%converged = last_ok
+        exit
+      end if
+      active = next
+    end do
+    res%nactive = count(active)
+    call make_monotone(rows, psi)
+    call rect_matvec(g, psi, x)
+    if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'dual P2, method multigrid: the active ' // &
+      'set on Gamma_a did not settle in ' // itoa(settings%max_steps) // ' steps, or a linear solve stopped early ' // &
+      '(the field is made admissible all the same; the bound stays guaranteed, less sharp)')
+  end subroutine stream_dual_solve
+
+  !> One step: psi = R z with R^T K R z = R^T F for the active rows (module header), z
+  !> started from psi, solved by multigrid.  last_ok: the solve converged.
+  subroutine solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, st, mg)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(in) :: k
+    real(dp), intent(in) :: f(:)
+    type(stream_gamma_rows_t), intent(in) :: rows
+    logical, intent(in) :: active(:,:)
+    type(stream_settings_t), intent(in) :: settings
+    real(dp), intent(inout) :: psi(:)
+    type(stream_result_t), intent(inout) :: res
+    logical, intent(out) :: last_ok
+    type(status_t), intent(inout) :: st
+    type(mg_hierarchy_t), intent(in), optional :: mg
+    type(rect_t) :: rmat, rt, pz
+    type(csr_t) :: kz
+    type(mg_hierarchy_t) :: h
+    type(mg_settings_t) :: ms
+    type(mg_result_t) :: mr
+    type(status_t) :: st_mg
+    integer, allocatable :: node_of_z(:), kind(:), pos(:)
+    real(dp), allocatable :: fz(:), z(:), bnd(:), xyz(:,:)
+    integer :: nz, i, ist
+    logical :: ok
+
+    last_ok = .false.
+    call reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
+    if (.not. is_ok(st)) return
+    nz = rmat%n
+    call amg_transpose(rmat, rt, st)
+    if (is_ok(st)) call amg_galerkin_pattern(rmat, rt, k, kz, st)
+    if (.not. is_ok(st)) return
+    allocate (pos(nz), source=0, stat=ist)
+    if (alloc_failed(ist, st, 'the reduced stream function', 4_i8 * nz, BYTES_REAL)) return
+    allocate (fz(nz), z(nz), bnd(nz), kind(nz), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced stream function', 4_i8 * nz, BYTES_REAL)) return
+    ok = .true.
+    call amg_galerkin_values(rmat, rt, k, kz, pos, ok)
+    call rect_matvec(rt, f, fz)
+    z = psi(node_of_z)
+    kind = BOUND_FREE
+    bnd = 0.0_dp
+    kz%val(kz%diag) = kz%val(kz%diag) * (1.0_dp + constant_shift)
+    res%geometric = .false.
+    if (present(mg)) then
+      if (mg%nlevel >= 2 .and. mg_finest_size(mg) == mesh%nnode) then
+        call mg_extend_algebraic(mg, pz, h, st)
+        if (.not. is_ok(st)) return
+        res%geometric = .true.
+      end if
+    end if
+    if (.not. res%geometric) then
+      allocate (xyz(2, nz), stat=ist)
+      if (alloc_failed(ist, st, 'the coordinates of the stream function', 2_i8 * nz, BYTES_REAL)) return
+      do i = 1, nz
+        xyz(:, i) = p2_point(mesh, node_of_z(i))
+      end do
+      call mg_build_algebraic(h, kz, st, xyz)
+      if (.not. is_ok(st)) return
+    end if
+    ms%tol = settings%tol
+    ms%fmg_cycles = merge(1, 0, all(z == 0.0_dp))
+    call multigrid_solve(h, kz, fz, kind, bnd, z, ms, mr, st_mg)
+    call mg_clear(h)
+    res%vcycles = res%vcycles + mr%iterations
+    if (.not. is_ok(st_mg) .and. .not. is_warning(st_mg)) then
+      st = st_mg
+      return
+    end if
+    last_ok = mr%converged
+    call rect_matvec(rmat, z, psi)
+  end subroutine solve_with_active
+
+  !> The coordinates of P2 node i (a vertex, or the midpoint of edge i - nnode).
+  pure function p2_point(mesh, i) result(p)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: i
+    real(dp) :: p(2)
+    if (i <= mesh%nnode) then
+      p = mesh%xy(:, i)
+    else
+      p = 0.5_dp * (mesh%xy(:, mesh%edge_nodes(1, i - mesh%nnode)) + mesh%xy(:, mesh%edge_nodes(2, i - mesh%nnode)))
+    end if
+  end function p2_point
+
+  !> G (2 nedge x (nnode + nedge)): the edge-end fluxes x = G psi of q = curl psi (module
+  !> header: three entries per row, the derivative of the P2 trace along the edge).
+  subroutine stream_flux_matrix(mesh, g, st)
+    type(mesh_t), intent(in) :: mesh
+    type(rect_t), intent(out) :: g
+    type(status_t), intent(out) :: st
+    integer, allocatable :: ri(:), ci(:)
+    real(dp), allocatable :: v(:)
+    real(dp) :: d(2), s, l
+    integer :: e, t, kl, n1, n2, p, ist
+    allocate (ri(6 * mesh%nedge), ci(6 * mesh%nedge), v(6 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the flux map of the stream function', 6_i8 * mesh%nedge, BYTES_REAL + 2 * BYTES_INT)) &
+      return
+    do e = 1, mesh%nedge
+      n1 = mesh%edge_nodes(1, e)
+      n2 = mesh%edge_nodes(2, e)
+      d = mesh%xy(:, n2) - mesh%xy(:, n1)
+      l = hypot(d(1), d(2))
+      t = mesh%edge_tri(1, e)
+      s = -1.0_dp
+      do kl = 1, 3
+        if (mesh%tri_edge(kl, t) == e .and. mesh%tri(kl, t) == n1) s = 1.0_dp
+      end do
+      p = 6 * (e - 1)
+      ri(p + 1:p + 3) = 2 * e - 1
+      ri(p + 4:p + 6) = 2 * e
+      ci(p + 1:p + 6) = [n1, mesh%nnode + e, n2, n1, mesh%nnode + e, n2]
+      v(p + 1:p + 6) = s / l * [-3.0_dp, 4.0_dp, -1.0_dp, 1.0_dp, -4.0_dp, 3.0_dp]
+    end do
+    call rect_from_triplets(2 * mesh%nedge, mesh%nnode + mesh%nedge, ri, ci, v, g, st)
+  end subroutine stream_flux_matrix
+
+  !> K: the P2 stiffness matrix (int grad phi_i . grad phi_j; the edge-midpoint rule is
+  !> exact for the quadratic integrands), vertices first, then the edge midpoints.
+  subroutine stream_stiffness(mesh, k, st)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(out) :: k
+    type(status_t), intent(out) :: st
+    integer, allocatable :: cl(:,:)
+    real(dp) :: gl(2, 3), area, ke(6, 6), gr(2, 6, 3), xy(2, 3)
+    real(dp), parameter :: lam(3, 3) = reshape([0.5_dp, 0.5_dp, 0.0_dp, 0.0_dp, 0.5_dp, 0.5_dp, 0.5_dp, 0.0_dp, &
+                                                0.5_dp], [3, 3])   ! barycentrics of the edge midpoints
+    integer :: t, q, i, j, ist
+    allocate (cl(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the P2 element map', 6_i8 * mesh%ntri, BYTES_INT)) return
+    do t = 1, mesh%ntri
+      cl(1:3, t) = mesh%tri(:, t)
+      cl(4:6, t) = mesh%nnode + mesh%tri_edge(:, t)
+    end do
+    call csr_pattern_from_cliques(mesh%nnode + mesh%nedge, cl, k, st)
+    if (.not. is_ok(st)) return
+    k%val = 0.0_dp
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      area = 0.5_dp * ((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
+      do i = 1, 3
+        j = mod(i, 3) + 1
+        q = mod(j, 3) + 1
+        gl(:, i) = [xy(2, j) - xy(2, q), xy(1, q) - xy(1, j)] / (2 * area)
+      end do
+      ! P2 basis: vertex i lambda_i (2 lambda_i - 1), edge i (vertices i, i+1) 4 lambda_i lambda_(i+1)
+      do q = 1, 3
+        do i = 1, 3
+          j = mod(i, 3) + 1
+          gr(:, i, q) = (4 * lam(i, q) - 1) * gl(:, i)
+          gr(:, 3 + i, q) = 4 * (lam(j, q) * gl(:, i) + lam(i, q) * gl(:, j))
+        end do
+      end do
+      ke = 0.0_dp
+      do q = 1, 3
+        do j = 1, 6
+          do i = 1, 6
+            ke(i, j) = ke(i, j) + area / 3 * dot_product(gr(:, i, q), gr(:, j, q))
+          end do
+        end do
+      end do
+      call csr_add_block(k, cl(:, t), ke)
+    end do
+  end subroutine stream_stiffness
+
+  !> The Gamma_a edges in boundary order (stream_gamma_rows_t), each chain of consecutive Gamma_a
+  !> edges from its first edge on.
+  subroutine stream_gamma_a_rows(mesh, is_gamma_a, rows, st)
+    type(mesh_t), intent(in) :: mesh
+    logical, intent(in) :: is_gamma_a(:)
+    type(stream_gamma_rows_t), intent(out) :: rows
+    type(status_t), intent(out) :: st
+    integer :: l, i0, nl, i, j, jp, e, k, ist
+    rows%n = count(is_gamma_a)
+    allocate (rows%a(rows%n), rows%b(rows%n), rows%m(rows%n), rows%dof(2, rows%n), rows%prev(rows%n), &
+              rows%len(rows%n), stat=ist)
+    if (alloc_failed(ist, st, 'the Gamma_a rows', 8_i8 * rows%n, BYTES_INT)) return
+    k = 0
+    do l = 1, mesh%nloop
+      i0 = mesh%loop_start(l)
+      nl = mesh%loop_start(l + 1) - i0
+      ! start after an edge off Gamma_a, so that every chain is met from its first edge
+      jp = 0
+      do i = 0, nl - 1
+        if (.not. is_gamma_a(mesh%loop_bedge(i0 + i))) jp = i
+      end do
+      do i = 1, nl
+        j = mesh%loop_bedge(i0 + mod(jp + i, nl))
+        if (.not. is_gamma_a(j)) cycle
+        k = k + 1
+        e = mesh%bedge_edge(j)
+        rows%a(k) = mesh%bedge_nodes(1, j)
+        rows%b(k) = mesh%bedge_nodes(2, j)
+        rows%m(k) = mesh%nnode + e
+        rows%len(k) = mesh%bedge_length(j)
+        rows%dof(1, k) = 2 * (e - 1) + merge(1, 2, rows%a(k) == mesh%edge_nodes(1, e))
+        rows%dof(2, k) = 2 * (e - 1) + merge(1, 2, rows%b(k) == mesh%edge_nodes(1, e))
+        rows%prev(k) = 0
+        if (i > 1 .and. is_gamma_a(mesh%loop_bedge(i0 + mod(jp + i - 1, nl)))) rows%prev(k) = k - 1
+      end do
+    end do
+  end subroutine stream_gamma_a_rows
+
+  !> The change of basis psi = R z for the active rows (module header): R (n2 x nz), the
+  !> prolongation pz (nz x nnode) from the P1 values of the mesh (a vertex unknown takes its
+  !> vertex's value, a midpoint the mean of its edge's ends), node_of_z(nz) the P2 node that
+  !> carries unknown z (a merged run: its representative vertex).
+  subroutine reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
+    type(mesh_t), intent(in) :: mesh
+    type(stream_gamma_rows_t), intent(in) :: rows
+    logical, intent(in) :: active(:,:)
+    type(rect_t), intent(out) :: rmat, pz
+    integer, allocatable, intent(out) :: node_of_z(:)
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: rep(:), zof(:), ri(:), ci(:)
+    real(dp), allocatable :: v(:)
+    integer :: n2, k, i, nz, nt, e, ist
+    n2 = mesh%nnode + mesh%nedge
+    allocate (rep(mesh%nnode), zof(n2), ri(2 * n2), ci(2 * n2), v(2 * n2), stat=ist)   ! at most two entries a row
+    if (alloc_failed(ist, st, 'the reduced basis', 5_i8 * n2, BYTES_INT)) return
+    rep = [(i, i = 1, mesh%nnode)]
+    do k = 1, rows%n                       ! both rows active: a and b carry one value
+      if (all(active(:, k))) call merge_sets(rep, rows%a(k), rows%b(k))
+    end do
+    do i = 1, mesh%nnode
+      rep(i) = find_root(rep, i)
+    end do
+    zof = 1
+    do i = 1, mesh%nnode
+      if (rep(i) /= i) zof(i) = 0
+    end do
+    do k = 1, rows%n
+      if (any(active(:, k))) zof(rows%m(k)) = 0
+    end do
+    nz = 0
+    do i = 1, n2
+      if (zof(i) == 0) cycle
+      nz = nz + 1
+      zof(i) = nz
+    end do
+    allocate (node_of_z(nz), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced basis', int(nz, i8), BYTES_INT)) return
+    nt = 0
+    do i = 1, n2
+      if (zof(i) > 0) node_of_z(zof(i)) = i
+      if (i <= mesh%nnode) call add(i, zof(rep(i)), 1.0_dp)
+      if (i > mesh%nnode .and. zof(i) > 0) call add(i, zof(i), 1.0_dp)
+    end do
+    do k = 1, rows%n
+      associate (za => zof(rep(rows%a(k))), zb => zof(rep(rows%b(k))))
+        if (all(active(:, k)) .or. (any(active(:, k)) .and. za == zb)) then
+          call add(rows%m(k), za, 1.0_dp)
+        else if (active(1, k)) then       ! c_1 = 0: psi_m = (3 psi_a + psi_b) / 4
+          call add(rows%m(k), za, 0.75_dp)
+          call add(rows%m(k), zb, 0.25_dp)
+        else if (active(2, k)) then       ! c_2 = 0: psi_m = (psi_a + 3 psi_b) / 4
+          call add(rows%m(k), za, 0.25_dp)
+          call add(rows%m(k), zb, 0.75_dp)
+        end if
+      end associate
+    end do
+    call rect_from_triplets(n2, nz, ri(1:nt), ci(1:nt), v(1:nt), rmat, st)
+    if (.not. is_ok(st)) return
+    nt = 0
+    do k = 1, nz
+      i = node_of_z(k)
+      if (i <= mesh%nnode) then
+        call add(k, i, 1.0_dp)
+      else
+        e = i - mesh%nnode
+        call add(k, mesh%edge_nodes(1, e), 0.5_dp)
+        call add(k, mesh%edge_nodes(2, e), 0.5_dp)
+      end if
+    end do
+    call rect_from_triplets(nz, mesh%nnode, ri(1:nt), ci(1:nt), v(1:nt), pz, st)
+  contains
+    subroutine add(row, col, val)
+      integer, intent(in) :: row, col
+      real(dp), intent(in) :: val
+      nt = nt + 1
+      ri(nt) = row
+      ci(nt) = col
+      v(nt) = val
+    end subroutine add
+  end subroutine reduced_basis
+
+  !> Union of the sets of i and j (rep: parent links, roots point to themselves).
+  pure subroutine merge_sets(rep, i, j)
+    integer, intent(inout) :: rep(:)
+    integer, intent(in) :: i, j
+    integer :: ri, rj
+    ri = find_root(rep, i)
+    rj = find_root(rep, j)
+    if (ri < rj) rep(rj) = ri
+    if (rj < ri) rep(ri) = rj
+  end subroutine merge_sets
+
+  pure integer function find_root(rep, i) result(r)
+    integer, intent(in) :: rep(:), i
+    r = i
+    do while (rep(r) /= r)
+      r = rep(r)
+    end do
+  end function find_root
+
+  !> The multipliers mu >= 0 of the active rows from r = K psi - F = C_A^T mu, along each
+  !> chain from its first edge: at the midpoint m of edge k, r_m = 4 (mu_1 - mu_2) / L; at
+  !> its first end a, r_a = (-3 mu_1 + mu_2) / L + (-mu_1' + 3 mu_2') / L' of the previous
+  !> edge (known).  One active row: the midpoint equation; both: both equations.  Inactive
+  !> rows get 0.
+  pure subroutine mu_of_chains(rows, active, r, mu)
+    type(stream_gamma_rows_t), intent(in) :: rows
+    logical, intent(in) :: active(:,:)
+    real(dp), intent(in) :: r(:)
+    real(dp), intent(out) :: mu(:,:)
+    real(dp) :: rho, delta, l
+    integer :: k, kp
+    mu = 0.0_dp
+    do k = 1, rows%n
+      l = rows%len(k)
+      delta = r(rows%m(k)) * l / 4
+      if (all(active(:, k))) then
+        rho = r(rows%a(k))
+        kp = rows%prev(k)
+        if (kp > 0) rho = rho - (-mu(1, kp) + 3 * mu(2, kp)) / rows%len(kp)
+        mu(2, k) = -(rho * l + 3 * delta) / 2
+        mu(1, k) = mu(2, k) + delta
+      else if (active(1, k)) then
+        mu(1, k) = delta
+      else if (active(2, k)) then
+        mu(2, k) = -delta
+      end if
+    end do
+  end subroutine mu_of_chains
+
+  !> The next active set of the primal-dual active set method: an active row stays while
+  !> its multiplier is not negative, a free row joins when its flux is negative (tolerances
+  !> relative to the largest multiplier and flux, see release_tol).
+  pure subroutine next_active(rows, active, mu, x, next)
+    type(stream_gamma_rows_t), intent(in) :: rows
+    logical, intent(in) :: active(:,:)
+    real(dp), intent(in) :: mu(:,:), x(:)
+    logical, intent(out) :: next(:,:)
+    real(dp) :: mu_scale, x_scale
+    integer :: k, i
+    mu_scale = 0.0_dp
+    if (size(mu) > 0) mu_scale = maxval(abs(mu))
+    x_scale = maxval(abs(x))
+    do k = 1, rows%n
+      do i = 1, 2
+        if (active(i, k)) then
+          next(i, k) = mu(i, k) >= -release_tol * mu_scale
+        else
+          next(i, k) = x(rows%dof(i, k)) < -violation_tol * x_scale
+        end if
+      end do
+    end do
+  end subroutine next_active
+
+  !> Make psi feasible without leaving the curl fields: along each chain of Gamma_a edges,
+  !> in boundary order, psi_b is raised to psi_a where it fell below, then psi_m is moved into
+  !> [(3 psi_a + psi_b) / 4, (psi_a + 3 psi_b) / 4]: both rows of every edge are then >= 0,
+  !> and q = curl psi stays divergence-free (clipping the fluxes instead would break the
+  !> divergence and leave the equilibration to carry the defect to Gamma_u, at a cost in the
+  !> bound).  Changes only the values of the rows the solve left violated.
+  pure subroutine make_monotone(rows, psi)
+    type(stream_gamma_rows_t), intent(in) :: rows
+    real(dp), intent(inout) :: psi(:)
+    integer :: k
+    do k = 1, rows%n
+      associate (pa => psi(rows%a(k)), pb => psi(rows%b(k)), pm => psi(rows%m(k)))
+        pb = max(pb, pa)
+        pm = min(max(pm, (3 * pa + pb) / 4), (pa + 3 * pb) / 4)
+      end associate
+    end do
+  end subroutine make_monotone
+
+  !> y = G^T x.
+  pure subroutine transpose_matvec(g, x, y)
+    type(rect_t), intent(in) :: g
+    real(dp), intent(in) :: x(:)
+    real(dp), intent(out) :: y(:)
+    integer :: i, p
+    y = 0.0_dp
+    do i = 1, g%m
+      do p = g%rowptr(i), g%rowptr(i + 1) - 1
+        y(g%col(p)) = y(g%col(p)) + g%val(p) * x(i)
+      end do
+    end do
+  end subroutine transpose_matvec
+end module dualsig_dual_p2_stream
