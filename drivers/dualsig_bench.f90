@@ -21,8 +21,9 @@
 !> `bin/dualsig_bench multigrid [lmax [lmax_base [scene]]]` runs only the multigrid section
 !> (dualsig_bench_multigrid: TNNMG per level to lmax = 12 by default, baselines to 10,
 !> scene p2_contact); the whole run ends with it and the duals section.
-!> `bin/dualsig_bench duals [lmax [scene]]` (dualsig_bench_duals) runs only the duals against
-!> the primal solve of the same mesh, pipeline defaults, levels to 9 (both scenes by default).
+!> `bin/dualsig_bench duals [lmax [scene [dual_method]]]` (dualsig_bench_duals) runs only the
+!> duals against the primal solve of the same mesh, pipeline defaults, levels to 9 (both
+!> scenes and the factorising P2 dual 'augmented' by default).
 !> `bin/dualsig_bench peers [lmax [scene]]` (dualsig_bench_peers, run by `make bench-peers`)
 !> runs the dualsig side of the PETSc comparison: the multigrid grid sequence to lmax = 10 with
 !> every level's QP exported to out/peers/, then cold solves of the finest QP.
@@ -178,6 +179,7 @@ program dualsig_bench
     call bench_multigrid(max_level_mg, max_level_mg_base, 'p2_contact')
     call bench_duals(max_level_duals, 'p1_contact')
     call bench_duals(max_level_duals, 'p2_contact')
+    call bench_duals(max_level_duals, 'p2_contact', 'augmented')
   end if
 
 contains
@@ -196,17 +198,20 @@ contains
     call bench_multigrid(lmax, lbase, trim(arg))
   end subroutine multigrid_section
 
-  !> `duals [lmax [scene]]`: the cost of the duals against the primal solve (both scenes
-  !> without a scene).
+  !> `duals [lmax [scene [dual_method]]]`: the cost of the duals against the primal solve
+  !> (both scenes, and P2 by the factorising 'augmented' too, without a scene).
   subroutine duals_section()
     integer :: lmax, ios
     lmax = max_level_duals
     if (nsections >= 2) read (sections(2), *, iostat=ios) lmax
-    if (nsections >= 3) then
+    if (nsections >= 4) then
+      call bench_duals(lmax, trim(sections(3)), trim(sections(4)))
+    else if (nsections >= 3) then
       call bench_duals(lmax, trim(sections(3)))
     else
       call bench_duals(lmax, 'p1_contact')
       call bench_duals(lmax, 'p2_contact')
+      call bench_duals(lmax, 'p2_contact', 'augmented')
     end if
   end subroutine duals_section
 

@@ -3,7 +3,8 @@
 !>
 !> One pass of the analysis pipeline with the defaults a user gets (primal method 'auto',
 !> i.e. multigrid on the hierarchy from 1e4 unknowns; the default dual: P1 RT1 'nested', P2
-!> equilibrium 'augmented' with the Schur inner solver; every bound computed), grid
+!> equilibrium 'multigrid' (the stream function; 'augmented' on level 1); every bound
+!> computed), grid
 !> sequencing on the unit square from 2 x 2 cells to lmax.  Per level:
 !>  - the primal solve's seconds and method;
 !>  - the dual solve's seconds (the field only) and the whole dual part's (load data, dual
@@ -12,6 +13,10 @@
 !>    peak resident memory of the process (VmHWM) after the level, per dual unknown (an upper
 !>    bound of the dual's own memory: the process holds the primal level as well);
 !>  - the effectivity sqrt(est)/err of the bound.
+!> dual_method (optional): another dual method than the default (P2: 'augmented', one
+!> CHOLMOD factorisation; the table then goes to out/bench_duals_<scene>_<method>.csv).  The peak memory
+!> is the process's: for a method's own figure run it alone
+!> (`bin/dualsig_bench duals 10 p2_contact augmented`).
 !> Table to standard output and out/bench_duals_<scene>.csv.
 module dualsig_bench_duals
   use dualsig_kinds, only: dp
@@ -34,9 +39,10 @@ module dualsig_bench_duals
 contains
 
   !> The table of the module header for `scene_name` (p1_contact or p2_contact), levels to lmax.
-  subroutine bench_duals(lmax, scene_name)
+  subroutine bench_duals(lmax, scene_name, dual_method)
     integer, intent(in) :: lmax
     character(len=*), intent(in) :: scene_name
+    character(len=*), intent(in), optional :: dual_method
     type(scene_t) :: scene
     type(analysis_problem_t) :: pb
     type(analysis_settings_t) :: settings
@@ -45,6 +51,7 @@ contains
     type(status_t) :: st
     integer :: level, csv, ndual, nedge
     real(dp) :: peak, eff
+    character(len=:), allocatable :: label, suffix, tail
     call scene_lookup(scene_name, scene, st)
     if (.not. is_ok(st)) then
       write (*, '(a)') 'dualsig_bench duals: ' // trim(st%msg)
@@ -53,12 +60,22 @@ contains
     call mesh_rectangle(pb%mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
     call analysis_problem_set_scene(pb, scene)
     settings%levels = lmax
-    open (newunit=csv, file='out/bench_duals_' // scene_name // '.csv', status='replace')
+    label = trim(merge('RT1 nested                          ', 'default: multigrid from level 2 on', &
+                       scene%problem == PROBLEM_P1))
+    suffix = ''
+    tail = ''
+    if (present(dual_method)) then
+      settings%dual_method = dual_method
+      label = dual_method
+      suffix = '_' // dual_method
+      tail = ' ' // dual_method
+    end if
+    open (newunit=csv, file='out/bench_duals_' // scene_name // suffix // '.csv', status='replace')
     write (csv, '(a)') 'scene,level,n_primal,primal_method,primal_s,n_dual,dual_s,estimate_s,' // &
       'dual_over_primal,estimate_over_primal,peak_mb,peak_bytes_per_dual_unknown,eff'
     write (*, '(/,a)') 'dualsig_bench: the duals against the primal solve of the same mesh, ' // scene_name // &
-      ' (defaults: primal auto, dual ' // merge('RT1 nested      ', 'augmented, schur', scene%problem == PROBLEM_P1) // &
-      '; command: bin/dualsig_bench duals ' // itoa(lmax) // ' ' // scene_name // ')'
+      ' (primal auto, dual ' // label // '; command: bin/dualsig_bench duals ' // itoa(lmax) // ' ' // scene_name // &
+      tail // ')'
     write (*, '(a)') '  lvl   n_primal     method  primal_s     n_dual    dual_s  estimate_s  dual/primal' // &
       '  estimate/primal   peak MB  B/dual unknown         eff'
     call analysis_start(an, pb, settings, st)
@@ -88,7 +105,7 @@ contains
     end do
     call analysis_free(an)
     close (csv)
-    write (*, '(a)') 'dualsig_bench: table written to out/bench_duals_' // scene_name // '.csv'
+    write (*, '(a)') 'dualsig_bench: table written to out/bench_duals_' // scene_name // suffix // '.csv'
   end subroutine bench_duals
 
   !> a / b, 0 when b is not positive (a timer's resolution).

@@ -35,7 +35,7 @@ module dualsig_analysis
   use dualsig_solver_psor, only: psor_settings_t, psor_result_t, psor_solve
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, mg_reset, mg_add_level, mg_clear, &
-                                      multigrid_solve, mg_build_algebraic
+                                      multigrid_solve, mg_build_algebraic, mg_finest_size
   use dualsig_solver_boundary_schur, only: boundary_schur_settings_t, boundary_schur_result_t, boundary_schur_qp_solve, &
                                            boundary_schur_max_default
   use dualsig_fields, only: field_t, vector_field_t
@@ -160,8 +160,9 @@ module dualsig_analysis
     !> keep the multigrid hierarchy (an%mg, with its coarsest factor) and the nested dual's state
     !> after the last level, for a caller that uses them (then analysis_free releases them)
     logical :: keep_hierarchy = .false.
-    !> P1: active_set | uzawa | nested (hdiv, from level 2 on); P2: augmented | uzawa; default: P1 nested
-    !> (hdiv) or active_set (paper), P2 augmented
+    !> P1: active_set | uzawa | nested (hdiv, from level 2 on); P2: augmented | multigrid | uzawa;
+    !> default: P1 nested (hdiv) or active_set (paper), P2 multigrid where the primal's grid
+    !> hierarchy reaches the level (p2_dual_choice), else augmented
     character(len=16) :: dual_method = 'default'
     real(dp) :: dual_rho = 0.0_dp                 !! Uzawa step, 0 = automatic
     real(dp) :: dual_tol = 1.0e-10_dp             !! Uzawa tolerance, floor
@@ -306,7 +307,7 @@ contains
       return
     end if
     method = trim(settings%dual_method)
-    if (method == 'default') method = trim(merge('active_set', 'augmented ', problem%kind == PROBLEM_P1))
+    if (method == 'default') method = trim(merge('active_set', 'auto      ', problem%kind == PROBLEM_P1))
     ! P1 in RT1: 'nested' (the exact active set on the first level and wherever the previous
     ! level is not a uniform coarsening; from level 2 on the same bound at a fraction of the cost)
     if (settings%dual_method == 'default' .and. problem%kind == PROBLEM_P1 .and. settings%dual_space == 'hdiv') &
@@ -955,6 +956,19 @@ contains
       'varies below the resolution of the cubature): the bounds are NOT certified')
   end subroutine level_load_data
 
+  !> The P2 dual method of 'default' on this level: 'multigrid' (the stream function, O(N),
+  !> no factorisation) when the primal's geometric hierarchy reaches this mesh, the domain is
+  !> simply connected and lambda^f is the polynomial one; 'augmented' otherwise (level 1,
+  !> Gmsh meshes and adaptive steps: on those the aggregation hierarchy of the stream
+  !> function needs 25-110 V-cycles and is not faster; domains with holes).
+  function p2_dual_choice(an) result(method)
+    type(analysis_t), intent(in) :: an
+    character(len=16) :: method
+    method = 'augmented'
+    if (an%mg%nlevel >= 2 .and. mg_finest_size(an%mg) == an%mesh%nnode .and. an%mesh%nloop == 1 .and. &
+        an%settings%dual_particular == 'polynomial') method = 'multigrid'
+  end function p2_dual_choice
+
   !> P2 (Sections 4-6): the admissible field lambda_h = lambda^f + q_h by equilibrium
   !> elements (warm-started from u_h), the bounds (6.26) and Theorem 6.4 and, with an exact
   !> solution, ||grad u - lambda_h||.  A divergence defect above admissible_defect is a
@@ -977,6 +991,7 @@ contains
       is_gamma_a(j) = any(an%problem%gamma_a == an%mesh%bedge_marker(j))
     end do
     dset%method = an%dual_method
+    if (dset%method == 'auto') dset%method = p2_dual_choice(an)
     dset%rho = an%settings%dual_rho
     dset%max_iter = an%settings%dual_max_iter
     dset%ordering = an%settings%ordering
@@ -984,7 +999,7 @@ contains
     dset%inner = an%settings%dual_inner
     dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
     dset%particular = an%settings%dual_particular
-    res%dual_method = an%dual_method
+    res%dual_method = dset%method
     if (dset%particular == 'polynomial') then
       call level_load_data(an, load, res, st)
       if (.not. is_ok(st)) return

@@ -772,6 +772,9 @@ contains
           ', lambda_max(B A^-1 B^T) ~ ', d%lambda_max, ', residual ', d%residual
         if (res%dual_method == 'augmented') write (unit, '(a,es10.3,a,a)') '    penalty r = ', d%penalty, &
           ', ordering ', trim(d%ordering)
+        if (res%dual_method == 'multigrid') write (unit, '(a,i0,a,i0,a)') '    stream function: ', &
+          d%inner_iterations, ' V-cycles in ', d%iterations, ' active-set steps (' // trim(d%inner) // &
+          trim(merge(', geometric grids', ', aggregation    ', d%inner == 'multigrid')) // ')'
       end associate
     end if
   end subroutine report_level
@@ -1046,7 +1049,7 @@ contains
         parts = parts // ', no exact solution: no error columns (nan in the CSV)'
       end if
       dual_method = trim(cfg%dual_method)
-      if (dual_method == 'default') dual_method = trim(merge('active_set', 'augmented ', scene%problem == PROBLEM_P1))
+      if (dual_method == 'default') dual_method = trim(merge('active_set', 'default   ', scene%problem == PROBLEM_P1))
       if (cfg%dual_enabled .and. scene%problem == PROBLEM_P1 .and. cfg%dual_space == 'hdiv' .and. &
           cfg%dual_method == 'default') then
         parts = parts // '; dual analysis: space hdiv (RT1 fields, q.nu >= 0 at boundary edge ends), active_set ' // &
@@ -1059,7 +1062,13 @@ contains
         parts = parts // '; dual analysis: space paper (continuous P1 vector fields), ' // dual_method // &
           ' with a CHOLMOD factorisation; bounds (6.13), (6.14) from the feasible q'
       else if (cfg%dual_enabled) then
-        parts = parts // '; dual analysis: equilibrium elements, ' // dual_method
+        if (dual_method == 'default') then
+          parts = parts // '; dual analysis: equilibrium elements, multigrid (the stream function, no ' // &
+            'factorisation) on the levels the primal''s grid hierarchy reaches, augmented (inner solver ' // &
+            trim(cfg%dual_inner) // ') on the others'
+        else
+          parts = parts // '; dual analysis: equilibrium elements, ' // dual_method
+        end if
         if (dual_method == 'augmented') parts = parts // ' (inner solver ' // trim(cfg%dual_inner) // ')'
         parts = parts // '; lambda^h = lambda^f + q^h admissible; bounds (6.26), Theorem 6.4'
       else

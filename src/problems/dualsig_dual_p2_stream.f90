@@ -70,7 +70,7 @@ module dualsig_dual_p2_stream
   real(dp), parameter :: constant_shift = 1.0e-12_dp
 
   type :: stream_settings_t
-    real(dp) :: tol = 1.0e-10_dp     !! relative residual of each linear multigrid solve
+    real(dp) :: tol = 1.0e-8_dp      !! relative residual of each linear multigrid solve
     integer :: max_steps = 30        !! active-set steps
   end type stream_settings_t
 
