@@ -60,7 +60,7 @@ contains
     call mesh_rectangle(pb%mesh, 0.0_dp, 1.0_dp, 0.0_dp, 1.0_dp, 2, 2, 'right', st)
     call analysis_problem_set_scene(pb, scene)
     settings%levels = lmax
-    label = trim(merge('RT1 nested                          ', 'default: multigrid from level 2 on', &
+    label = trim(merge('RT1 nested                        ', 'default: multigrid from level 2 on', &
                        scene%problem == PROBLEM_P1))
     suffix = ''
     tail = ''
