@@ -44,6 +44,7 @@ module dualsig_analysis
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
+  use dualsig_dual_p2_stream, only: stream_prolongate
   use dualsig_problem_dual_hdiv, only: dual_hdiv_solve, hdiv_nested_t, dual_hdiv_nested_refine, dual_hdiv_nested_free
   use dualsig_estimate_dual_hdiv, only: dual_hdiv_bounds_load, dual_hdiv_errors
   use dualsig_estimate_errors, only: p1_error_norms
@@ -254,6 +255,8 @@ module dualsig_analysis
     real(dp), allocatable :: est_elem(:)    !! the element indicators of the current level (marking)
     !> dual method 'nested': the levels so far and the previous field, prolongated to this level
     type(hdiv_nested_t) :: nest
+    !> P2 dual 'multigrid': the last level's stream function, prolongated by a uniform refinement
+    real(dp), allocatable :: psi(:)
     real(dp) :: prolong_seconds = 0.0_dp    !! wall time of that prolongation (part of the dual's cost)
     real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
     real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
@@ -382,6 +385,8 @@ contains
         call prolongate_q_hdiv(an, finer, st)
         if (.not. is_ok(st)) return
       end if
+      if (allocated(an%psi)) call prolongate_psi(an, finer, st)
+      if (.not. is_ok(st)) return
       call mesh_move(finer, an%mesh)
       call phase_event(an, an%level + 1, 'refine', .true., wall_seconds() - t0)
     else if (allocated(an%u_start)) then
@@ -460,6 +465,7 @@ contains
     if (.not. is_ok(st)) return
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
+    if (allocated(an%psi)) deallocate (an%psi)
     allocate (u_next(finer%nnode), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
     call mesh_prolongate_bisection(parents, an%u, u_next)
@@ -548,6 +554,21 @@ contains
     call mg_clear(an%mg)
     an = analysis_t()
   end subroutine analysis_free
+
+  !> The P2 dual's stream function of the last level (method 'multigrid') on the uniform
+  !> refinement `finer`: the start of the next level's solve.
+  subroutine prolongate_psi(an, finer, st)
+    type(analysis_t), intent(inout) :: an
+    type(mesh_t), intent(in) :: finer
+    type(status_t), intent(inout) :: st
+    real(dp), allocatable :: psi_f(:)
+    if (size(an%psi) /= an%mesh%nnode + an%mesh%nedge) then
+      deallocate (an%psi)
+      return
+    end if
+    call stream_prolongate(an%mesh, finer, an%psi, psi_f, st)
+    if (is_ok(st)) call move_alloc(psi_f, an%psi)
+  end subroutine prolongate_psi
 
   !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform
   !> refinement `finer` (exact, hdiv_prolongate), the start of the next level's dual solve,
@@ -1008,10 +1029,10 @@ contains
       res%dual_seconds = wall_seconds()
       if (allocated(pb%x_breaks)) then
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           pb%x_breaks, an%u, load=load, mg=an%mg)
+                           pb%x_breaks, an%u, load=load, mg=an%mg, psi=an%psi)
       else
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           u_primal=an%u, load=load, mg=an%mg)
+                           u_primal=an%u, load=load, mg=an%mg, psi=an%psi)
       end if
       res%dual_seconds = wall_seconds() - res%dual_seconds
       res%dual_limit = is_warning(st_dual)

@@ -52,7 +52,7 @@ module dualsig_dual_p2_stream
   private
 
   public :: stream_settings_t, stream_result_t, stream_dual_solve, stream_flux_matrix, stream_stiffness, &
-            stream_gamma_a_rows, stream_gamma_rows_t
+            stream_gamma_a_rows, stream_gamma_rows_t, stream_prolongate
 
   !> A row of A leaves the active set when its multiplier is below -release_tol max|mu|, a
   !> free row joins it when its flux is below -violation_tol max|x| (the linear solves are
@@ -98,10 +98,12 @@ contains
   !> Solve the dual (module header) for the edge-end fluxes x (2 nedge) of q = curl psi.
   !> bx: the load of the fluxes (dualsig_problem_dual_p2, lambda^f polynomial);
   !> mg: the primal's geometric hierarchy (its finest grid the mesh's nodes), when there is
-  !> one; u_primal: the primal solution, for the start of the active set.
+  !> one; u_primal: the primal solution, for the start of the active set; psi (optional):
+  !> on entry, when of this mesh's size, the start (e.g. the previous level's psi,
+  !> stream_prolongate), on return the solution.
   !> st: DS_ERR_INPUT (a domain with holes), DS_ERR_MEMORY, DS_ERR_NUMERIC;
   !> DS_WARN_NOT_CONVERGED when the active set did not settle or a solve stopped early.
-  subroutine stream_dual_solve(mesh, bx, is_gamma_a, x, settings, res, st, mg, u_primal)
+  subroutine stream_dual_solve(mesh, bx, is_gamma_a, x, settings, res, st, mg, u_primal, psi_keep)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: bx(:)
     logical, intent(in) :: is_gamma_a(:)
@@ -111,6 +113,7 @@ contains
     type(status_t), intent(out) :: st
     type(mg_hierarchy_t), intent(in), optional :: mg
     real(dp), intent(in), optional :: u_primal(:)
+    real(dp), allocatable, intent(inout), optional :: psi_keep(:)
     type(rect_t) :: g
     type(csr_t) :: k
     type(stream_gamma_rows_t) :: rows
@@ -140,6 +143,11 @@ contains
       active(2, :) = u_primal(rows%b) > 0.0_dp
     end if
     psi = 0.0_dp
+    if (present(psi_keep)) then
+      if (allocated(psi_keep)) then
+        if (size(psi_keep) == n2) psi = psi_keep
+      end if
+    end if
     last_ok = .false.
     do step = 1, settings%max_steps
       res%steps = step
@@ -159,6 +167,7 @@ contains
     res%nactive = count(active)
     call make_monotone(rows, psi)
     call rect_matvec(g, psi, x)
+    if (present(psi_keep)) call move_alloc(psi, psi_keep)
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'dual P2, method multigrid: the active ' // &
       'set on Gamma_a did not settle in ' // itoa(settings%max_steps) // ' steps, or a linear solve stopped early ' // &
       '(the field is made admissible all the same; the bound stays guaranteed, less sharp)')
@@ -236,6 +245,50 @@ contains
     last_ok = mr%converged
     call rect_matvec(rmat, z, psi)
   end subroutine solve_with_active
+
+  !> psi_f = psi_c on the red refinement `fine` of `coarse` (dualsig_mesh_refine's numbering):
+  !> the P2 function is unchanged.  The fine vertices are the coarse P2 nodes, with the same
+  !> numbers (coarse vertex i, coarse midpoint nnode + e); a fine midpoint takes the value of
+  !> the parent's quadratic at its barycentric coordinates.
+  subroutine stream_prolongate(coarse, fine, psi_c, psi_f, st)
+    type(mesh_t), intent(in) :: coarse, fine
+    real(dp), intent(in) :: psi_c(:)
+    real(dp), allocatable, intent(out) :: psi_f(:)
+    type(status_t), intent(out) :: st
+    ! barycentric coordinates (in the parent) of v1, v2, v3, m1, m2, m3 and the children's
+    ! vertices (as indices into them), dualsig_mesh_refine's layout
+    real(dp), parameter :: b(3, 6) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      1.0_dp, 0.5_dp, 0.5_dp, 0.0_dp, 0.0_dp, 0.5_dp, 0.5_dp, 0.5_dp, 0.0_dp, 0.5_dp], [3, 6])
+    integer, parameter :: child(3, 4) = reshape([1, 4, 6, 4, 2, 5, 6, 5, 3, 4, 5, 6], [3, 4])
+    real(dp) :: lam(3), vals(6)
+    integer :: t, c, i, tf, ist
+    allocate (psi_f(fine%nnode + fine%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated stream function', int(fine%nnode + fine%nedge, i8), BYTES_REAL)) &
+      return
+    psi_f(1:coarse%nnode + coarse%nedge) = psi_c
+    do t = 1, coarse%ntri
+      vals(1:3) = psi_c(coarse%tri(:, t))
+      vals(4:6) = psi_c(coarse%nnode + coarse%tri_edge(:, t))
+      do c = 1, 4
+        tf = 4 * (t - 1) + c
+        do i = 1, 3
+          lam = 0.5_dp * (b(:, child(i, c)) + b(:, child(mod(i, 3) + 1, c)))
+          psi_f(fine%nnode + fine%tri_edge(i, tf)) = p2_value(vals, lam)
+        end do
+      end do
+    end do
+  end subroutine stream_prolongate
+
+  !> The P2 function with vertex values vals(1:3) and edge values vals(4:6) (edge i from
+  !> vertex i to i+1) at barycentric coordinates lam.
+  pure real(dp) function p2_value(vals, lam) result(v)
+    real(dp), intent(in) :: vals(6), lam(3)
+    integer :: i
+    v = 0.0_dp
+    do i = 1, 3
+      v = v + vals(i) * lam(i) * (2 * lam(i) - 1) + vals(3 + i) * 4 * lam(i) * lam(mod(i, 3) + 1)
+    end do
+  end function p2_value
 
   !> The coordinates of P2 node i (a vertex, or the midpoint of edge i - nnode).
   pure function p2_point(mesh, i) result(p)

@@ -129,7 +129,7 @@ contains
   !> u_primal (optional, nnode): the primal solution on the same mesh; by complementarity
   !> (lambda . nu u = 0 on Gamma_a) the dual constraint is predicted active where u > 0,
   !> which starts the active-set method near its solution.
-  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load, mg)
+  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load, mg, psi)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     logical, intent(in) :: is_gamma_a(:)
@@ -142,6 +142,9 @@ contains
     real(dp), intent(in), optional :: u_primal(:)
     type(load_data_t), intent(in), optional :: load   !! polynomial lambda^f: the load data (built when absent)
     type(mg_hierarchy_t), intent(in), optional :: mg  !! 'multigrid': the primal's geometric hierarchy, if any
+    !> 'multigrid': the stream function; on entry its start when of this mesh's size (the
+    !> previous level's, prolongated), on return the solution
+    real(dp), allocatable, intent(inout), optional :: psi(:)
     type(equilibrium_map_t) :: map
     real(dp), allocatable :: ae(:,:,:), d(:,:), be(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:), gh(:,:)
     logical, allocatable :: on_gamma_a(:)
@@ -227,7 +230,7 @@ contains
       res%nactive = ares%nactive
       res%residual = ares%kkt_residual
     case ('multigrid')
-      call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg)
+      call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi)
       if (.not. is_ok(st)) return
       where (on_gamma_a) x = max(x, bnd)
     case ('uzawa')
@@ -276,7 +279,7 @@ contains
 
   !> method 'multigrid': the dual by its stream function (dualsig_dual_p2_stream), for the
   !> polynomial lambda^f (zero flux on Gamma_a); x: the edge-end fluxes.
-  subroutine stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg)
+  subroutine stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi)
     type(mesh_t), intent(in) :: mesh
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: be(:,:)
@@ -287,6 +290,7 @@ contains
     type(status_t), intent(inout) :: st
     real(dp), intent(in), optional :: u_primal(:)
     type(mg_hierarchy_t), intent(in), optional :: mg
+    real(dp), allocatable, intent(inout), optional :: psi(:)
     type(stream_settings_t) :: sset
     type(stream_result_t) :: sres
     real(dp), allocatable :: bx(:)
@@ -299,7 +303,7 @@ contains
     allocate (bx(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the equilibrium load', 2 * mesh%nedge, BYTES_REAL)) return
     call equilibrium_to_global(map, be, bx)
-    call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal)
+    call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal, psi)
     if (.not. is_ok(st)) return
     res%iterations = sres%steps
     res%inner = 'multigrid'
