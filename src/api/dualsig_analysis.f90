@@ -392,8 +392,11 @@ contains
     else if (allocated(an%u_start)) then
       u_next = an%u_start
     end if
-    if (an%level == 0 .and. any(an%settings%method == [character(len=16) :: 'multigrid', 'auto'])) &
-      call mg_reset(an%mg, an%mesh%nnode)
+    ! the grids of the uniform refinements: for the primal's multigrid, and for the P2 dual's
+    ! stream function (p2_dual_choice) whatever the primal method
+    if (an%level == 0 .and. (any(an%settings%method == [character(len=16) :: 'multigrid', 'auto']) .or. &
+        (an%problem%kind /= PROBLEM_P1 .and. an%settings%dual .and. any(an%dual_method == &
+        [character(len=16) :: 'auto', 'multigrid'])))) call mg_reset(an%mg, an%mesh%nnode)
     if (.not. allocated(u_next)) then
       allocate (u_next(an%mesh%nnode), stat=ist)
       if (alloc_failed(ist, st, 'the primal solution', an%mesh%nnode, BYTES_REAL)) return
