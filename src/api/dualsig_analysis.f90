@@ -981,7 +981,8 @@ contains
   end subroutine level_load_data
 
   !> The P2 dual method of 'default' on this level: 'multigrid' (the stream function, O(N),
-  !> no factorisation) when the primal's geometric hierarchy reaches this mesh, the domain is
+  !> no factorisation) when the grids of the uniform refinements reach this mesh (kept for
+  !> it whatever the primal method: level 2 on of a uniform run), the domain is
   !> simply connected and lambda^f is the polynomial one; 'augmented' otherwise (level 1,
   !> Gmsh meshes and adaptive steps: on those the aggregation hierarchy of the stream
   !> function needs 25-110 V-cycles and is not faster; domains with holes).

@@ -1064,7 +1064,7 @@ contains
       else if (cfg%dual_enabled) then
         if (dual_method == 'default') then
           parts = parts // '; dual analysis: equilibrium elements, multigrid (the stream function, no ' // &
-            'factorisation) on the levels the primal''s grid hierarchy reaches, augmented (inner solver ' // &
+            'factorisation) from level 2 on of a uniform refinement, augmented (inner solver ' // &
             trim(cfg%dual_inner) // ') on the others'
         else
           parts = parts // '; dual analysis: equilibrium elements, ' // dual_method
