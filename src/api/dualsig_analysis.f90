@@ -980,6 +980,27 @@ contains
       'varies below the resolution of the cubature): the bounds are NOT certified')
   end subroutine level_load_data
 
+  !> The P2 dual field of the level by dual_p2_solve with the settings dset (the kinks of f
+  !> passed when the problem has them).
+  subroutine solve_p2_field(an, dset, is_gamma_a, load, field, res, st_dual)
+    type(analysis_t), intent(inout) :: an
+    type(dual_p2_settings_t), intent(in) :: dset
+    logical, intent(in) :: is_gamma_a(:)
+    type(load_data_t), intent(in) :: load
+    type(dual_p2_field_t), intent(out) :: field
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st_dual
+    associate (pb => an%problem, mesh => an%mesh)
+      if (allocated(pb%x_breaks)) then
+        call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
+                           pb%x_breaks, an%u, load=load, mg=an%mg, psi=an%psi)
+      else
+        call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
+                           u_primal=an%u, load=load, mg=an%mg, psi=an%psi)
+      end if
+    end associate
+  end subroutine solve_p2_field
+
   !> The P2 dual method of 'default' on this level: 'multigrid' (the stream function, O(N),
   !> no factorisation) when the grids of the uniform refinements reach this mesh (kept for
   !> it whatever the primal method: level 2 on of a uniform run), the domain is
@@ -1031,12 +1052,13 @@ contains
     end if
     associate (pb => an%problem, mesh => an%mesh)
       res%dual_seconds = wall_seconds()
-      if (allocated(pb%x_breaks)) then
-        call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           pb%x_breaks, an%u, load=load, mg=an%mg, psi=an%psi)
-      else
-        call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           u_primal=an%u, load=load, mg=an%mg, psi=an%psi)
+      call solve_p2_field(an, dset, is_gamma_a, load, field, res, st_dual)
+      if (an%dual_method == 'auto' .and. dset%method == 'multigrid' .and. st_dual%code /= DS_OK) then
+        ! 'default' falls back on the factorisation when the stream function's solve fails or
+        ! stalls (needle triangles: Gauss-Seidel does not smooth there)
+        dset%method = 'augmented'
+        res%dual_method = dset%method
+        call solve_p2_field(an, dset, is_gamma_a, load, field, res, st_dual)
       end if
       res%dual_seconds = wall_seconds() - res%dual_seconds
       res%dual_limit = is_warning(st_dual)

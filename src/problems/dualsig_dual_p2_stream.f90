@@ -38,7 +38,7 @@
 module dualsig_dual_p2_stream
   use dualsig_kinds, only: dp, i8
   use dualsig_mesh, only: mesh_t
-  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, rect_matvec, rect_from_triplets, csr_pattern_from_cliques, &
+  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, rect_matvec, rect_matvec_t, rect_from_triplets, csr_pattern_from_cliques, &
                             csr_add_block
   use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_pattern, amg_galerkin_values
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, multigrid_solve, mg_clear, &
@@ -136,7 +136,7 @@ contains
     res%nrows = 2 * rows%n
     allocate (f(n2), psi(n2), r(n2), mu(2, rows%n), active(2, rows%n), next(2, rows%n), stat=ist)
     if (alloc_failed(ist, st, 'the stream function', 3_i8 * n2 + 4_i8 * rows%n, BYTES_REAL)) return
-    call transpose_matvec(g, bx, f)
+    call rect_matvec_t(g, bx, f)
     active = .false.
     if (present(u_primal)) then
       active(1, :) = u_primal(rows%a) > 0.0_dp
@@ -593,18 +593,4 @@ contains
       end associate
     end do
   end subroutine make_monotone
-
-  !> y = G^T x.
-  pure subroutine transpose_matvec(g, x, y)
-    type(rect_t), intent(in) :: g
-    real(dp), intent(in) :: x(:)
-    real(dp), intent(out) :: y(:)
-    integer :: i, p
-    y = 0.0_dp
-    do i = 1, g%m
-      do p = g%rowptr(i), g%rowptr(i + 1) - 1
-        y(g%col(p)) = y(g%col(p)) + g%val(p) * x(i)
-      end do
-    end do
-  end subroutine transpose_matvec
 end module dualsig_dual_p2_stream
