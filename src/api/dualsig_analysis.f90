@@ -44,7 +44,7 @@ module dualsig_analysis
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
-  use dualsig_dual_p2_stream, only: stream_prolongate
+  use dualsig_dual_p2_stream, only: stream_prolongate, stream_prolongate_set
   use dualsig_problem_dual_hdiv, only: dual_hdiv_solve, hdiv_nested_t, dual_hdiv_nested_refine, dual_hdiv_nested_free
   use dualsig_estimate_dual_hdiv, only: dual_hdiv_bounds_load, dual_hdiv_errors
   use dualsig_estimate_errors, only: p1_error_norms
@@ -257,6 +257,7 @@ module dualsig_analysis
     type(hdiv_nested_t) :: nest
     !> P2 dual 'multigrid': the last level's stream function, prolongated by a uniform refinement
     real(dp), allocatable :: psi(:)
+    integer, allocatable :: psi_set(:,:)     !! and its active set on Gamma_a (2, nbedge)
     real(dp) :: prolong_seconds = 0.0_dp    !! wall time of that prolongation (part of the dual's cost)
     real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
     real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
@@ -469,6 +470,7 @@ contains
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
     if (allocated(an%psi)) deallocate (an%psi)
+    if (allocated(an%psi_set)) deallocate (an%psi_set)
     allocate (u_next(finer%nnode), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
     call mesh_prolongate_bisection(parents, an%u, u_next)
@@ -565,12 +567,17 @@ contains
     type(mesh_t), intent(in) :: finer
     type(status_t), intent(inout) :: st
     real(dp), allocatable :: psi_f(:)
+    integer, allocatable :: set_f(:,:)
     if (size(an%psi) /= an%mesh%nnode + an%mesh%nedge) then
       deallocate (an%psi)
       return
     end if
     call stream_prolongate(an%mesh, finer, an%psi, psi_f, st)
     if (is_ok(st)) call move_alloc(psi_f, an%psi)
+    if (allocated(an%psi_set) .and. is_ok(st)) then
+      call stream_prolongate_set(an%psi_set, set_f, st)
+      if (is_ok(st)) call move_alloc(set_f, an%psi_set)
+    end if
   end subroutine prolongate_psi
 
   !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform
@@ -993,10 +1000,10 @@ contains
     associate (pb => an%problem, mesh => an%mesh)
       if (allocated(pb%x_breaks)) then
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           pb%x_breaks, an%u, load=load, mg=an%mg, psi=an%psi)
+                           pb%x_breaks, an%u, load=load, mg=an%mg, psi=an%psi, active_set=an%psi_set)
       else
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           u_primal=an%u, load=load, mg=an%mg, psi=an%psi)
+                           u_primal=an%u, load=load, mg=an%mg, psi=an%psi, active_set=an%psi_set)
       end if
     end associate
   end subroutine solve_p2_field

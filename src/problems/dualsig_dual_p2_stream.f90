@@ -52,7 +52,8 @@ module dualsig_dual_p2_stream
   private
 
   public :: stream_settings_t, stream_result_t, stream_dual_solve, stream_flux_matrix, stream_stiffness, &
-            stream_gamma_a_rows, stream_gamma_rows_t, stream_prolongate
+            stream_gamma_a_rows, stream_gamma_rows_t, stream_prolongate, stream_prolongate_set, &
+            SET_ACTIVE, SET_FREE, SET_UNKNOWN
 
   !> A row of A leaves the active set when its multiplier is below -release_tol max|mu|, a
   !> free row joins it when its flux is below -violation_tol max|x| (the linear solves are
@@ -68,6 +69,10 @@ module dualsig_dual_p2_stream
   !> of one node instead leaves near-constant modes of tiny energy that the coarse grids
   !> cannot correct: 25 V-cycles instead of 12 at 10^6 unknowns.
   real(dp), parameter :: constant_shift = 1.0e-12_dp
+
+  !> A Gamma_a row of a kept active set (stream_dual_solve's set_keep): its flux held at 0,
+  !> free, or not known (rows off Gamma_a, rows at a new vertex whose edge was half active).
+  integer, parameter :: SET_ACTIVE = 1, SET_FREE = 0, SET_UNKNOWN = -1
 
   type :: stream_settings_t
     real(dp) :: tol = 1.0e-8_dp      !! relative residual of each linear multigrid solve
@@ -90,6 +95,7 @@ module dualsig_dual_p2_stream
   type :: stream_gamma_rows_t
     integer :: n = 0
     integer, allocatable :: a(:), b(:), m(:), dof(:,:), prev(:)
+    integer, allocatable :: bedge(:)        !! the boundary edge (mesh%bedge_nodes) of row pair k
     real(dp), allocatable :: len(:)
   end type stream_gamma_rows_t
 
@@ -100,10 +106,12 @@ contains
   !> mg: the primal's geometric hierarchy (its finest grid the mesh's nodes), when there is
   !> one; u_primal: the primal solution, for the start of the active set; psi (optional):
   !> on entry, when of this mesh's size, the start (e.g. the previous level's psi,
-  !> stream_prolongate), on return the solution.
+  !> stream_prolongate), on return the solution; set_keep (optional, (2, nbedge)): on entry
+  !> the rows known active or free (SET_ACTIVE, SET_FREE; SET_UNKNOWN: the primal's guess),
+  !> e.g. the previous level's set (stream_prolongate_set), on return the final set.
   !> st: DS_ERR_INPUT (a domain with holes), DS_ERR_MEMORY, DS_ERR_NUMERIC;
   !> DS_WARN_NOT_CONVERGED when the active set did not settle or a solve stopped early.
-  subroutine stream_dual_solve(mesh, bx, is_gamma_a, x, settings, res, st, mg, u_primal, psi_keep)
+  subroutine stream_dual_solve(mesh, bx, is_gamma_a, x, settings, res, st, mg, u_primal, psi_keep, set_keep)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: bx(:)
     logical, intent(in) :: is_gamma_a(:)
@@ -114,6 +122,7 @@ contains
     type(mg_hierarchy_t), intent(in), optional :: mg
     real(dp), intent(in), optional :: u_primal(:)
     real(dp), allocatable, intent(inout), optional :: psi_keep(:)
+    integer, allocatable, intent(inout), optional :: set_keep(:,:)
     type(rect_t) :: g
     type(csr_t) :: k
     type(stream_gamma_rows_t) :: rows
@@ -142,6 +151,13 @@ contains
       active(1, :) = u_primal(rows%a) > 0.0_dp
       active(2, :) = u_primal(rows%b) > 0.0_dp
     end if
+    if (present(set_keep)) then                  ! the previous level's set where it tells
+      if (allocated(set_keep)) then
+        if (size(set_keep, 2) == mesh%nbedge) then
+          where (set_keep(:, rows%bedge) /= SET_UNKNOWN) active = set_keep(:, rows%bedge) == SET_ACTIVE
+        end if
+      end if
+    end if
     psi = 0.0_dp
     if (present(psi_keep)) then
       if (allocated(psi_keep)) then
@@ -168,6 +184,12 @@ contains
     call make_monotone(rows, psi)
     call rect_matvec(g, psi, x)
     if (present(psi_keep)) call move_alloc(psi, psi_keep)
+    if (present(set_keep)) then
+      if (allocated(set_keep)) deallocate (set_keep)
+      allocate (set_keep(2, mesh%nbedge), source=SET_UNKNOWN, stat=ist)
+      if (alloc_failed(ist, st, 'the active set on Gamma_a', 2_i8 * mesh%nbedge, BYTES_INT)) return
+      set_keep(:, rows%bedge) = merge(SET_ACTIVE, SET_FREE, active)
+    end if
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'dual P2, method multigrid: the active ' // &
       'set on Gamma_a did not settle in ' // itoa(settings%max_steps) // ' steps, or a linear solve stopped early ' // &
       '(the field is made admissible all the same; the bound stays guaranteed, less sharp)')
@@ -278,6 +300,27 @@ contains
       end do
     end do
   end subroutine stream_prolongate
+
+  !> The active set of the rows (set_keep of stream_dual_solve, (2, nbedge) of the coarse
+  !> mesh) carried to the red refinement: coarse boundary edge j (a -> b, midpoint m) becomes
+  !> fine edges 2j-1 = (a, m) and 2j = (m, b) (dualsig_mesh_refine); the rows at a and b keep
+  !> their state, the two at m are active when both rows of j were (the flux vanished on the
+  !> whole edge), free when neither was, unknown otherwise.
+  subroutine stream_prolongate_set(set_c, set_f, st)
+    integer, intent(in) :: set_c(:,:)
+    integer, allocatable, intent(out) :: set_f(:,:)
+    type(status_t), intent(out) :: st
+    integer :: j, mid, ist
+    allocate (set_f(2, 2 * size(set_c, 2)), stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated active set', 4_i8 * size(set_c, 2), BYTES_INT)) return
+    do j = 1, size(set_c, 2)
+      mid = SET_UNKNOWN
+      if (all(set_c(:, j) == SET_ACTIVE)) mid = SET_ACTIVE
+      if (all(set_c(:, j) == SET_FREE)) mid = SET_FREE
+      set_f(:, 2 * j - 1) = [set_c(1, j), mid]
+      set_f(:, 2 * j) = [mid, set_c(2, j)]
+    end do
+  end subroutine stream_prolongate_set
 
   !> The P2 function with vertex values vals(1:3) and edge values vals(4:6) (edge i from
   !> vertex i to i+1) at barycentric coordinates lam.
@@ -392,7 +435,7 @@ contains
     integer :: l, i0, nl, i, j, jp, e, k, ist
     rows%n = count(is_gamma_a)
     allocate (rows%a(rows%n), rows%b(rows%n), rows%m(rows%n), rows%dof(2, rows%n), rows%prev(rows%n), &
-              rows%len(rows%n), stat=ist)
+              rows%len(rows%n), rows%bedge(rows%n), stat=ist)
     if (alloc_failed(ist, st, 'the Gamma_a rows', 8_i8 * rows%n, BYTES_INT)) return
     k = 0
     do l = 1, mesh%nloop
@@ -415,6 +458,7 @@ contains
         rows%dof(1, k) = 2 * (e - 1) + merge(1, 2, rows%a(k) == mesh%edge_nodes(1, e))
         rows%dof(2, k) = 2 * (e - 1) + merge(1, 2, rows%b(k) == mesh%edge_nodes(1, e))
         rows%prev(k) = 0
+        rows%bedge(k) = j
         if (i > 1 .and. is_gamma_a(mesh%loop_bedge(i0 + mod(jp + i - 1, nl)))) rows%prev(k) = k - 1
       end do
     end do

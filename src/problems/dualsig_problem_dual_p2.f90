@@ -129,7 +129,8 @@ contains
   !> u_primal (optional, nnode): the primal solution on the same mesh; by complementarity
   !> (lambda . nu u = 0 on Gamma_a) the dual constraint is predicted active where u > 0,
   !> which starts the active-set method near its solution.
-  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load, mg, psi)
+  subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load, mg, psi, &
+                           active_set)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     logical, intent(in) :: is_gamma_a(:)
@@ -145,6 +146,9 @@ contains
     !> 'multigrid': the stream function; on entry its start when of this mesh's size (the
     !> previous level's, prolongated), on return the solution
     real(dp), allocatable, intent(inout), optional :: psi(:)
+    !> 'multigrid': the active set on Gamma_a, on entry the start (the previous level's,
+    !> stream_prolongate_set), on return the final one
+    integer, allocatable, intent(inout), optional :: active_set(:,:)
     type(equilibrium_map_t) :: map
     real(dp), allocatable :: ae(:,:,:), d(:,:), be(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:), gh(:,:)
     logical, allocatable :: on_gamma_a(:)
@@ -230,7 +234,7 @@ contains
       res%nactive = ares%nactive
       res%residual = ares%kkt_residual
     case ('multigrid')
-      call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi)
+      call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
       if (.not. is_ok(st)) return
       where (on_gamma_a) x = max(x, bnd)
     case ('uzawa')
@@ -279,7 +283,7 @@ contains
 
   !> method 'multigrid': the dual by its stream function (dualsig_dual_p2_stream), for the
   !> polynomial lambda^f (zero flux on Gamma_a); x: the edge-end fluxes.
-  subroutine stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi)
+  subroutine stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
     type(mesh_t), intent(in) :: mesh
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: be(:,:)
@@ -291,6 +295,7 @@ contains
     real(dp), intent(in), optional :: u_primal(:)
     type(mg_hierarchy_t), intent(in), optional :: mg
     real(dp), allocatable, intent(inout), optional :: psi(:)
+    integer, allocatable, intent(inout), optional :: active_set(:,:)
     type(stream_settings_t) :: sset
     type(stream_result_t) :: sres
     real(dp), allocatable :: bx(:)
@@ -303,7 +308,7 @@ contains
     allocate (bx(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the equilibrium load', 2 * mesh%nedge, BYTES_REAL)) return
     call equilibrium_to_global(map, be, bx)
-    call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal, psi)
+    call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal, psi, active_set)
     if (.not. is_ok(st)) return
     res%iterations = sres%steps
     res%inner = 'multigrid'
