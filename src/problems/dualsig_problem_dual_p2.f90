@@ -234,6 +234,7 @@ contains
       res%nactive = ares%nactive
       res%residual = ares%kkt_residual
     case ('multigrid')
+      deallocate (ae)                                   ! in the loads already; the stream function needs K only
       call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
       if (.not. is_ok(st)) return
       where (on_gamma_a) x = max(x, bnd)
