@@ -1,5 +1,5 @@
 !> The P2 equilibrium dual (4.5) by its stream function and multigrid: O(N) time and memory
-!> (issue 16 item 3; doc/theory.md, "The P2 dual by a stream function").
+!> (issue 16 item 3; doc/theory.md, "Dual problem of P2", Solvers, `multigrid`).
 !>
 !> With the polynomial particular field (lambda^f . nu = 0 on Gamma_a) the dual asks for the
 !> divergence-free BDM1 field q (the equilibrium elements, continuity built in) minimising
@@ -29,7 +29,8 @@
 !> (mg_extend_algebraic), or smoothed aggregation on R^T K R without one.  The multipliers
 !> of A follow from K psi - F = C_A^T mu along each chain of Gamma_a edges (mu_of_chains);
 !> a row leaves A when its multiplier is negative and joins it when it is violated.  The
-!> start is the primal's contact set (complementarity: the flux vanishes where u_h > 0).
+!> start is the previous level's set where it tells (stream_prolongate_set), else the
+!> primal's contact set (complementarity: the flux vanishes where u_h > 0).
 !> The set is accepted when no multiplier is negative and no flux below -violation_tol
 !> max|x|; what is left is removed by make_monotone, which keeps q a curl (exactly
 !> divergence-free), so the field is admissible whatever the accuracy reached here, and the
