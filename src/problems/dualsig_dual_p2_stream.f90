@@ -234,6 +234,10 @@ contains
     if (alloc_failed(ist, st, 'the reduced stream function', 4_i8 * nz, BYTES_REAL)) return
     ok = .true.
     call amg_galerkin_values(rmat, rt, k, kz, pos, ok)
+    if (.not. ok) then                ! the pattern is the product's own: cannot happen
+      call set_error(st, DS_ERR_NUMERIC, 'dual P2, method multigrid: R^T K R left its pattern')
+      return
+    end if
     call rect_matvec(rt, f, fz)
     z = psi(node_of_z)
     kind = BOUND_FREE
@@ -625,8 +629,8 @@ contains
   !> in boundary order, psi_b is raised to psi_a where it fell below, then psi_m is moved into
   !> [(3 psi_a + psi_b) / 4, (psi_a + 3 psi_b) / 4]: both rows of every edge are then >= 0,
   !> and q = curl psi stays divergence-free (clipping the fluxes instead would break the
-  !> divergence and leave the equilibration to carry the defect to Gamma_u, at a cost in the
-  !> bound).  Changes only the values of the rows the solve left violated.
+  !> divergence and leave the equilibration to carry the defect to Gamma_u).  Changes only
+  !> the values of the rows the solve left violated.
   pure subroutine make_monotone(rows, psi)
     type(stream_gamma_rows_t), intent(in) :: rows
     real(dp), intent(inout) :: psi(:)
