@@ -67,6 +67,7 @@ program dualsig_bench
   use dualsig_bench_multigrid, only: bench_multigrid, dirichlet_decoupled
   use dualsig_bench_peers, only: bench_peers
   use dualsig_bench_duals, only: bench_duals
+  use dualsig_heap, only: heap_keep_freed
   implicit none
 
   integer, parameter :: max_level = 8          !! finest level (n = 2^level cells per side)
@@ -102,6 +103,7 @@ program dualsig_bench
   character(len=*), parameter :: head = &
     '     scene  lvl     ndof  sweep/matvec  omega   start    sweeps   seconds      err_u_H1  kkt_residual'
 
+  call heap_keep_freed()          ! as bin/dualsig: freed blocks reused (dualsig_heap)
   call execute_command_line('mkdir -p out')
   call get_sections()
   ! cold: only on request (`bin/dualsig_bench cold [level]`); the large section has a cold line per level

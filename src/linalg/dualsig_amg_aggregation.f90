@@ -22,7 +22,7 @@
 !>     the strong graph) and omega = 4 / (3 rho), rho = the Gershgorin bound
 !>     max_i sum_j |a^F_ij| / a^F_ii of rho(D_F^-1 A_F) (an upper bound, so omega is safe
 !>     without power iterations; on P1 and P2 Laplacians it is within 1.5 of rho).
-!> The Galerkin product P^T A P (amg_galerkin_pattern, amg_galerkin_values) is also used by
+!> The Galerkin product P^T A P (amg_galerkin_product, amg_galerkin_values) is also used by
 !> the truncated multigrid, whose frozen unknowns are the zeroed rows of P
 !> (dualsig_solver_multigrid): the aggregation is built on the full matrix, all nodes
 !> included, and the truncation does the rest.
@@ -31,15 +31,15 @@
 !> Debian's libhypre is built against MPI, and a sequential Fortran library that its legacy
 !> users link without MPI must not pull MPI in.
 module dualsig_amg_aggregation
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, rect_t, csr_set_row_pattern, sort_small_ints
-  use dualsig_status, only: status_t
+  use dualsig_status, only: status_t, is_ok, set_error, DS_ERR_NUMERIC
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
   public :: amg_strength_theta, amg_coarsest_max
-  public :: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values, amg_sweep_order
+  public :: amg_prolongation, amg_transpose, amg_galerkin_product, amg_galerkin_values, amg_sweep_order
 
   !> Strength threshold of the connection graph (0.08: Vanek-Mandel-Brezina's choice for
   !> 2D; every edge of a P1 Laplacian on a shape-regular mesh is strong).
@@ -298,55 +298,89 @@ contains
     end do
   end subroutine amg_transpose
 
-  !> The pattern of ac = P^T af P (values zero, columns sorted, diagonal present) for p and
-  !> its transpose pt.  st: DS_ERR_MEMORY.
-  subroutine amg_galerkin_pattern(p, pt, af, ac, st)
+  !> ac = P^T af P with p (nf x nc) and pt = p^T: pattern and values in one sweep over the
+  !> product (Gustavson's row-by-row product: a dense accumulator and a marker per coarse
+  !> column), columns sorted, the diagonal always stored.  The row lengths are not known
+  !> before the sweep, so the entries go to arrays that grow by half when full (from a guess
+  !> of nnz(af) nc / nf + nc) and are cut to size at the end.  The values are those of the
+  !> untruncated product; amg_galerkin_values recomputes them on this pattern (truncated,
+  !> or after af changed).  st: DS_ERR_MEMORY, DS_ERR_NUMERIC (2^31 entries or more).
+  subroutine amg_galerkin_product(p, pt, af, ac, st)
     type(rect_t), intent(in) :: p, pt
     type(csr_t), intent(in) :: af
     type(csr_t), intent(out) :: ac
     type(status_t), intent(inout) :: st
-    integer, allocatable :: mark(:), list(:)
-    integer :: pass, ci, q, r, s, i, j, jc, cnt, lo, ist
-    integer :: nnz
-    allocate (mark(p%n), list(p%n), ac%rowptr(p%n + 1), ac%diag(p%n), stat=ist)
-    if (alloc_failed(ist, st, 'the pattern of a coarse operator', 4 * p%n, BYTES_INT)) return
+    integer, allocatable :: mark(:), list(:), col(:)
+    real(dp), allocatable :: acc(:), val(:)
+    integer :: ci, q, r, s, i, j, jc, cnt, ist
+    integer(i8) :: nnz, cap
+    real(dp) :: aij
+    allocate (mark(p%n), list(p%n), acc(p%n), ac%rowptr(p%n + 1), ac%diag(p%n), stat=ist)
+    if (alloc_failed(ist, st, 'the pattern of a coarse operator', 6_i8 * p%n, BYTES_INT)) return
     ac%n = p%n
-    do pass = 1, 2
-      mark = 0
-      nnz = 0
-      ac%rowptr(1) = 1
-      do ci = 1, p%n
-        cnt = 1
-        list(1) = ci
-        mark(ci) = ci
-        do q = pt%rowptr(ci), pt%rowptr(ci + 1) - 1
-          i = pt%col(q)
-          do r = af%rowptr(i), af%rowptr(i + 1) - 1
-            j = af%col(r)
-            do s = p%rowptr(j), p%rowptr(j + 1) - 1
-              jc = p%col(s)
-              if (mark(jc) /= ci) then
-                mark(jc) = ci
-                cnt = cnt + 1
-                list(cnt) = jc
-              end if
-            end do
+    cap = int(real(size(af%col), dp) * real(p%n, dp) / real(max(1, af%n), dp), i8) + p%n
+    allocate (col(cap), val(cap), stat=ist)
+    if (alloc_failed(ist, st, 'a coarse operator', cap, BYTES_INT + BYTES_REAL)) return
+    mark = 0
+    nnz = 0
+    ac%rowptr(1) = 1
+    do ci = 1, p%n
+      cnt = 1
+      list(1) = ci
+      mark(ci) = ci
+      acc(ci) = 0.0_dp
+      do q = pt%rowptr(ci), pt%rowptr(ci + 1) - 1
+        i = pt%col(q)
+        do r = af%rowptr(i), af%rowptr(i + 1) - 1
+          j = af%col(r)
+          aij = pt%val(q) * af%val(r)
+          do s = p%rowptr(j), p%rowptr(j + 1) - 1
+            jc = p%col(s)
+            if (mark(jc) /= ci) then
+              mark(jc) = ci
+              cnt = cnt + 1
+              list(cnt) = jc
+              acc(jc) = 0.0_dp
+            end if
+            acc(jc) = acc(jc) + aij * p%val(s)
           end do
         end do
-        lo = nnz
-        nnz = nnz + cnt
-        ac%rowptr(ci + 1) = nnz + 1
-        if (pass == 2) call csr_set_row_pattern(ac, ci, lo, list(1:cnt))
       end do
-      if (pass == 1) then
-        allocate (ac%col(nnz), ac%val(nnz), stat=ist)
-        if (alloc_failed(ist, st, 'a coarse operator', 3 * nnz, BYTES_INT)) return
-        ac%val = 0.0_dp
+      call sort_small_ints(list(1:cnt))
+      if (nnz + cnt > cap) then
+        call grow(max(nnz + cnt, cap + cap / 2))
+        if (.not. is_ok(st)) return
       end if
+      col(nnz + 1:nnz + cnt) = list(1:cnt)
+      val(nnz + 1:nnz + cnt) = acc(list(1:cnt))
+      ac%diag(ci) = int(nnz) + findloc(list(1:cnt), ci, 1)
+      nnz = nnz + cnt
+      if (nnz >= huge(1)) then
+        call set_error(st, DS_ERR_NUMERIC, 'a coarse operator: more than 2^31 - 1 entries')
+        return
+      end if
+      ac%rowptr(ci + 1) = int(nnz) + 1
     end do
-  end subroutine amg_galerkin_pattern
+    allocate (ac%col(nnz), ac%val(nnz), stat=ist)
+    if (alloc_failed(ist, st, 'a coarse operator', nnz, BYTES_INT + BYTES_REAL)) return
+    ac%col = col(1:nnz)
+    ac%val = val(1:nnz)
+  contains
+    subroutine grow(newcap)
+      integer(i8), intent(in) :: newcap
+      integer, allocatable :: col2(:)
+      real(dp), allocatable :: val2(:)
+      allocate (col2(newcap), val2(newcap), stat=ist)
+      if (alloc_failed(ist, st, 'a coarse operator', newcap, BYTES_INT + BYTES_REAL)) return
+      col2(1:nnz) = col(1:nnz)
+      val2(1:nnz) = val(1:nnz)
+      call move_alloc(col2, col)
+      call move_alloc(val2, val)
+      cap = newcap
+    end subroutine grow
+  end subroutine amg_galerkin_product
 
-  !> The values of ac = P_T^T af P_T on the pattern of amg_galerkin_pattern, P_T = p with
+  !> The values of ac = P_T^T af P_T on the pattern of amg_galerkin_product, P_T = p with
   !> the rows of the frozen fine unknowns zeroed (frozen absent: none).  pos(p%n) is
   !> scratch, zero on entry and on return; ok set .false. when an entry leaves the pattern.
   !> rows present: only the coarse rows ci with rows(ci) are computed.

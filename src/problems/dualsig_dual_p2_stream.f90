@@ -41,7 +41,7 @@ module dualsig_dual_p2_stream
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, csr_matvec, rect_matvec, rect_matvec_t, rect_from_triplets, csr_pattern_from_cliques, &
                             csr_add_block
-  use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_pattern, amg_galerkin_values
+  use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_product
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, multigrid_solve, mg_clear, &
                                       mg_build_algebraic, mg_extend_algebraic, mg_finest_size
   use dualsig_qp_types, only: BOUND_FREE
@@ -216,28 +216,19 @@ contains
     type(mg_settings_t) :: ms
     type(mg_result_t) :: mr
     type(status_t) :: st_mg
-    integer, allocatable :: node_of_z(:), kind(:), pos(:)
+    integer, allocatable :: node_of_z(:), kind(:)
     real(dp), allocatable :: fz(:), z(:), bnd(:), xyz(:,:)
     integer :: nz, i, ist
-    logical :: ok
 
     last_ok = .false.
     call reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
     if (.not. is_ok(st)) return
     nz = rmat%n
     call amg_transpose(rmat, rt, st)
-    if (is_ok(st)) call amg_galerkin_pattern(rmat, rt, k, kz, st)
+    if (is_ok(st)) call amg_galerkin_product(rmat, rt, k, kz, st)
     if (.not. is_ok(st)) return
-    allocate (pos(nz), source=0, stat=ist)
-    if (alloc_failed(ist, st, 'the reduced stream function', 4_i8 * nz, BYTES_REAL)) return
     allocate (fz(nz), z(nz), bnd(nz), kind(nz), stat=ist)
     if (alloc_failed(ist, st, 'the reduced stream function', 4_i8 * nz, BYTES_REAL)) return
-    ok = .true.
-    call amg_galerkin_values(rmat, rt, k, kz, pos, ok)
-    if (.not. ok) then                ! the pattern is the product's own: cannot happen
-      call set_error(st, DS_ERR_NUMERIC, 'dual P2, method multigrid: R^T K R left its pattern')
-      return
-    end if
     call rect_matvec(rt, f, fz)
     z = psi(node_of_z)
     kind = BOUND_FREE

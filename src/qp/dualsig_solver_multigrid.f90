@@ -46,7 +46,7 @@
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec, csr_set_row_pattern
-  use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_pattern, amg_galerkin_values, &
+  use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_product, amg_galerkin_values, &
                                      amg_sweep_order, &
                                      amg_coarsest_max
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
@@ -104,6 +104,10 @@ module dualsig_solver_multigrid
     type(mg_grid_t), allocatable :: grid(:)
     type(cholesky_t) :: coarse                    !! factor of grid 1's operator
     logical :: coarse_ok = .false.                !! the factor is usable
+    !> grids 1..nlevel-1 hold the untruncated P^T A P of the matrix setup_grids was given
+    !> (set when setup_grids built every coarse operator by amg_galerkin_product; the next
+    !> untruncated galerkin_algebraic uses them instead of recomputing, and clears it)
+    logical :: values_fresh = .false.
   end type mg_hierarchy_t
 
   type :: mg_settings_t
@@ -402,21 +406,13 @@ contains
     type(csr_t), intent(inout) :: ac
     type(status_t), intent(inout) :: st
     integer, intent(in), optional :: order(:)
-    integer, allocatable :: pos(:)
-    integer :: ierr
-    logical :: ok
     call amg_prolongation(af, t%p, t%agg, st, order)
     if (is_ok(st)) call amg_transpose(t%p, t%pt, st)
-    if (is_ok(st)) call amg_galerkin_pattern(t%p, t%pt, af, ac, st)
+    if (is_ok(st)) call amg_galerkin_product(t%p, t%pt, af, ac, st)
     if (.not. is_ok(st)) return
     t%algebraic = .true.
     t%nf = af%n
     t%nc = t%p%n
-    allocate (pos(t%nc), source=0, stat=ierr)
-    if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for a coarse operator')
-    if (ierr /= 0) return
-    ok = .true.
-    call amg_galerkin_values(t%p, t%pt, af, ac, pos, ok)
   end subroutine algebraic_grid
 
   !> TNNMG (module header) from the start x (projected on the constraints first) on the
@@ -686,13 +682,14 @@ contains
     end if
     if (allocated(h%grid)) deallocate (h%grid)
     h%coarse_ok = .false.
+    h%values_fresh = .false.
     allocate (h%grid(h%nlevel - 1), stat=ierr)
     if (ierr /= 0) return
     do l = h%nlevel, 2, -1
       nc = h%transfer(l)%nc
       if (h%transfer(l)%algebraic) then
-        if (l == h%nlevel) call amg_galerkin_pattern(h%transfer(l)%p, h%transfer(l)%pt, a, h%grid(l - 1)%a, st)
-        if (l < h%nlevel) call amg_galerkin_pattern(h%transfer(l)%p, h%transfer(l)%pt, h%grid(l)%a, h%grid(l - 1)%a, st)
+        if (l == h%nlevel) call amg_galerkin_product(h%transfer(l)%p, h%transfer(l)%pt, a, h%grid(l - 1)%a, st)
+        if (l < h%nlevel) call amg_galerkin_product(h%transfer(l)%p, h%transfer(l)%pt, h%grid(l)%a, h%grid(l - 1)%a, st)
         if (.not. is_ok(st)) ierr = 1
       else if (.not. general) then
         call csr_pattern_from_edges(nc, coarse_edges(h, l), h%grid(l - 1)%a, st=st)
@@ -706,6 +703,7 @@ contains
       allocate (h%grid(l - 1)%x(nc), h%grid(l - 1)%b(nc), h%grid(l - 1)%r(nc), stat=ierr)
       if (ierr /= 0) return
     end do
+    h%values_fresh = all(h%transfer(2:h%nlevel)%algebraic)
   end subroutine setup_grids
 
   !> The edges of grid l-1: the ends of the midpoints of transfer(l).
@@ -956,6 +954,12 @@ contains
     logical, allocatable :: mark(:), markc(:)
     integer :: l, i, ierr
     logical :: ok
+    if (h%values_fresh .and. .not. present(frozen_prev) .and. .not. any(frozen)) then
+      h%values_fresh = .false.                  ! setup_grids' products are these operators
+      call factor_coarsest(h)
+      return
+    end if
+    h%values_fresh = .false.
     allocate (pos(h%transfer(h%nlevel)%nc), source=0, stat=ierr)
     if (ierr == 0 .and. present(frozen_prev)) allocate (mark(a%n), source=.false., stat=ierr)
     if (ierr /= 0) then
