@@ -21,7 +21,7 @@ module dualsig_estimate_dual_hdiv
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_nbasis, rt1_matrix_degree
   use dualsig_assembly_dual_hdiv, only: hdiv_local_coefficients, hdiv_bedge_dofs
@@ -90,7 +90,7 @@ contains
       ! Pi_1 f + div q - u~ and Pi_1 f + div q: linear, their squares exact with a degree-2 rule
       e2 = load%osc(t)**2
       hi = hi + load%osc(t)**2
-      tp = tri_points(g%xy, lrule, [real(dp) ::])
+      call tri_points_set(g%xy, lrule, tp, [real(dp) ::])
       do k = 1, tp%n
         pf = load%mean(t) + dot_product(load%slope(:, t), tp%p(:, k) - centroid)
         uq = dot_product(tp%bary(:, k), ue)
@@ -149,7 +149,7 @@ contains
     do t = 1, mesh%ntri
       g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
       c = hdiv_local_coefficients(mesh, x, t)
-      tp = tri_points(g%xy, rule, breaks)
+      call tri_points_set(g%xy, rule, tp, breaks)
       do k = 1, tp%n
         p = tp%p(:, k)
         call rt1_values(g, tp%bary(:, k), psi, dpsi)

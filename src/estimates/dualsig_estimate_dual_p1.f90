@@ -18,7 +18,7 @@ module dualsig_estimate_dual_p1
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_load_data, only: load_data_t
   use dualsig_status, only: status_t
@@ -72,7 +72,7 @@ contains
       divq = sum(grad * qe)
       e1 = 0.0_dp
       e2 = 0.0_dp
-      tp = tri_points(xy, rule, breaks)
+      call tri_points_set(xy, rule, tp, breaks)
       do k = 1, tp%n
         fq = f%value(tp%p(1, k), tp%p(2, k))
         uq = dot_product(tp%bary(:, k), ue)
@@ -128,7 +128,7 @@ contains
       divq = sum(grad * qe)
       centroid = sum(xy, dim=2) / 3.0_dp
       ! polynomial parts, degree 2: exact with the degree-2 rule
-      tp = tri_points(xy, exact_rule, [real(dp) ::])
+      call tri_points_set(xy, exact_rule, tp, [real(dp) ::])
       e1 = 0.0_dp
       e2 = 0.0_dp
       qsq = 0.0_dp
@@ -203,7 +203,7 @@ contains
       divq = sum(grad * qe)
       e1 = 0.0_dp
       e2 = 0.0_dp
-      tp = tri_points(xy, rule, breaks)
+      call tri_points_set(xy, rule, tp, breaks)
       do k = 1, tp%n
         p = tp%p(:, k)
         qq = matmul(qe, tp%bary(:, k))

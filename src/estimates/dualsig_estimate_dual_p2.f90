@@ -16,7 +16,7 @@ module dualsig_estimate_dual_p2
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_kinds, only: pi
-  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
   use dualsig_load_data, only: load_data_t
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_elements_equilibrium, only: equilibrium_field
@@ -69,7 +69,7 @@ contains
       ue = u(mesh%tri(:, t))
       gu = matmul(grad, ue)
       e1 = 0.0_dp
-      tp = tri_points(xy, rule, field%pf%breaks(1:field%pf%nbreaks))
+      call tri_points_set(xy, rule, tp, field%pf%breaks(1:field%pf%nbreaks))
       do k = 1, tp%n
         lam = dual_p2_lambda(field, mesh, f, t, tp%bary(:, k))
         e1 = e1 + tp%w(k) * sum((lam - gu)**2)
@@ -143,7 +143,7 @@ contains
       ue = u(mesh%tri(:, t))
       gu = matmul(grad, ue)
       e1 = 0.0_dp
-      tp = tri_points(xy, rule, [real(dp) ::])
+      call tri_points_set(xy, rule, tp, [real(dp) ::])
       do k = 1, tp%n
         lam = equilibrium_field(field%c(:, :, t), field%beta(:, t) + field%beta_f(:, t), tp%bary(:, k)) + &
               bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
@@ -205,7 +205,7 @@ contains
     err = 0.0_dp
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
-      tp = tri_points(xy, rule, field%pf%breaks(1:field%pf%nbreaks))
+      call tri_points_set(xy, rule, tp, field%pf%breaks(1:field%pf%nbreaks))
       do k = 1, tp%n
         err = err + tp%w(k) * sum((grad_u%value(tp%p(1, k), tp%p(2, k)) - dual_p2_lambda(field, mesh, f, t, tp%bary(:, k)))**2)
       end do

@@ -28,7 +28,7 @@ module dualsig_load_data
   use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -238,7 +238,7 @@ contains
       type(tri_points_t) :: tp
       real(dp) :: v, d(2)
       integer :: q
-      tp = tri_points(xy, rule, br_local)
+      call tri_points_set(xy, rule, tp, br_local)
       s = 0.0_dp
       do q = 1, tp%n
         v = f%value(centroid(1) + tp%p(1, q), centroid(2) + tp%p(2, q))

@@ -11,7 +11,7 @@ module dualsig_quadrature
   implicit none
   private
 
-  public :: tri_rule_t, tri_rule, gauss_legendre, tri_points_t, tri_points
+  public :: tri_rule_t, tri_rule, gauss_legendre, tri_points_t, tri_points, tri_points_set
 
   !> Newton iteration for the Gauss-Legendre nodes stops when the update is below this.
   real(dp), parameter :: newton_tol = 4.0_dp * epsilon(1.0_dp)
@@ -49,15 +49,35 @@ contains
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(in), optional :: breaks(:)
     type(tri_points_t) :: tp
+    call tri_points_set(xy, rule, tp, breaks)
+  end function tri_points
+
+  !> tri_points into tp, whose arrays are kept when large enough (a loop over the triangles
+  !> allocates them once, not three times per triangle); a triangle that no break line
+  !> crosses takes the rule directly, without pieces.
+  pure subroutine tri_points_set(xy, rule, tp, breaks)
+    real(dp), intent(in) :: xy(2, 3)
+    type(tri_rule_t), intent(in) :: rule
+    type(tri_points_t), intent(inout) :: tp
+    real(dp), intent(in), optional :: breaks(:)
     real(dp), allocatable :: pieces(:,:,:), next(:,:,:)
     real(dp) :: area, det, pa, q(2)
     integer :: k, j, m, npiece, nnext, i, nbreak
+    logical :: crossed
     area = abs(tri_area(xy))
+    nbreak = 0
+    if (present(breaks)) nbreak = size(breaks)
+    crossed = .false.
+    do k = 1, nbreak
+      crossed = crossed .or. (minval(xy(1, :)) < breaks(k) .and. breaks(k) < maxval(xy(1, :)))
+    end do
+    if (.not. crossed) then
+      call points_of_rule(xy, area, rule, tp)
+      return
+    end if
     allocate (pieces(2, 3, 1))                        ! small: one triangle
     pieces(:, :, 1) = xy
     npiece = 1
-    nbreak = 0
-    if (present(breaks)) nbreak = size(breaks)
     do k = 1, nbreak
       allocate (next(2, 3, 3 * npiece))               ! small: pieces of one triangle (< 3 per break line)
       nnext = 0
@@ -67,7 +87,7 @@ contains
       call move_alloc(next, pieces)
       npiece = nnext
     end do
-    allocate (tp%p(2, npiece * rule%n), tp%w(npiece * rule%n), tp%bary(3, npiece * rule%n))  ! small: one triangle
+    call reserve(tp, npiece * rule%n)
     det = (xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1))
     m = 0
     do j = 1, npiece
@@ -75,16 +95,45 @@ contains
       if (pa <= sliver_rel_area * area) cycle
       do i = 1, rule%n
         m = m + 1
-        tp%p(:, m) = matmul(pieces(:, :, j), rule%bary(:, i))
+        q = pieces(:, 1, j) * rule%bary(1, i) + pieces(:, 2, j) * rule%bary(2, i) + pieces(:, 3, j) * rule%bary(3, i)
+        tp%p(:, m) = q
         tp%w(m) = pa * rule%w(i)
-        q = tp%p(:, m) - xy(:, 1)
+        q = q - xy(:, 1)
         tp%bary(2, m) = (q(1) * (xy(2, 3) - xy(2, 1)) - q(2) * (xy(1, 3) - xy(1, 1))) / det
         tp%bary(3, m) = (q(2) * (xy(1, 2) - xy(1, 1)) - q(1) * (xy(2, 2) - xy(2, 1))) / det
         tp%bary(1, m) = 1.0_dp - tp%bary(2, m) - tp%bary(3, m)
       end do
     end do
     tp%n = m
-  end function tri_points
+  end subroutine tri_points_set
+
+  !> The rule on the uncut triangle xy (area `area`): its barycentric coordinates are the
+  !> rule's own.
+  pure subroutine points_of_rule(xy, area, rule, tp)
+    real(dp), intent(in) :: xy(2, 3), area
+    type(tri_rule_t), intent(in) :: rule
+    type(tri_points_t), intent(inout) :: tp
+    integer :: i
+    call reserve(tp, rule%n)
+    do i = 1, rule%n
+      tp%p(1, i) = xy(1, 1) * rule%bary(1, i) + xy(1, 2) * rule%bary(2, i) + xy(1, 3) * rule%bary(3, i)
+      tp%p(2, i) = xy(2, 1) * rule%bary(1, i) + xy(2, 2) * rule%bary(2, i) + xy(2, 3) * rule%bary(3, i)
+      tp%w(i) = area * rule%w(i)
+      tp%bary(:, i) = rule%bary(:, i)
+    end do
+    tp%n = rule%n
+  end subroutine points_of_rule
+
+  !> tp's arrays hold at least n points (kept when large enough).
+  pure subroutine reserve(tp, n)
+    type(tri_points_t), intent(inout) :: tp
+    integer, intent(in) :: n
+    if (allocated(tp%w)) then
+      if (size(tp%w) >= n) return
+      deallocate (tp%p, tp%w, tp%bary)
+    end if
+    allocate (tp%p(2, n), tp%w(n), tp%bary(3, n))     ! small: the points of one triangle
+  end subroutine reserve
 
   !> Append to out(:,:,1:nout) the pieces of triangle t on either side of the line x = c.
   pure subroutine cut_at_x(t, c, out, nout)

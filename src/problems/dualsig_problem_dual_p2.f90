@@ -31,7 +31,7 @@ module dualsig_problem_dual_p2
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, rect_matvec
-  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
   use dualsig_sparse_direct, only: ORDERING_AMD, ORDERING_GEOMETRIC
   use dualsig_ordering_geometric, only: geometric_ordering
   use dualsig_spd_solver, only: block_diag_spd_t
@@ -367,7 +367,7 @@ contains
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       field%bubble(:, t) = bubble_coefficients(xy, slope(:, t))
-      tp = tri_points(xy, rule, [real(dp) ::])
+      call tri_points_set(xy, rule, tp, [real(dp) ::])
       if (allocated(lam)) deallocate (lam)
       allocate (lam(2, tp%n))                      ! small: the points of one triangle
       do k = 1, tp%n
@@ -406,7 +406,7 @@ contains
     allocate (be(6, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the element loads', 6 * mesh%ntri, BYTES_REAL)) return
     do t = 1, mesh%ntri
-      tp = tri_points(mesh%xy(:, mesh%tri(:, t)), rule, field%pf%breaks(1:field%pf%nbreaks))
+      call tri_points_set(mesh%xy(:, mesh%tri(:, t)), rule, tp, field%pf%breaks(1:field%pf%nbreaks))
       if (allocated(lam)) deallocate (lam)
       allocate (lam(2, tp%n))                      ! small: the points of one triangle
       do k = 1, tp%n
