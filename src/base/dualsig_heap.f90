@@ -7,7 +7,8 @@
 !> GB: measured on the P2 dual at level 9 of p2_contact (doc/performance.md), its solver
 !> phases took 1.77 s instead of 2.37 s with the freed memory kept, at 4 % more peak memory.
 !> bin/dualsig and the benchmark programs call heap_keep_freed first; the library itself
-!> never does (it would change its caller's allocator).
+!> never does (it would change its caller's allocator).  Nothing is changed under a memory
+!> limit (ulimit -v or -d): there OpenBLAS's threads need mmap (dualsig_heap_policy.c).
 module dualsig_heap
   use, intrinsic :: iso_c_binding, only: c_int
   implicit none
@@ -26,13 +27,15 @@ module dualsig_heap
 
 contains
 
-  !> .true. when heap_keep_freed can act in this build (glibc, not under AddressSanitizer).
+  !> .true. when heap_keep_freed can act here (glibc, not under AddressSanitizer, no
+  !> address-space or data limit on the process).
   logical function heap_policy_available()
     heap_policy_available = c_available() == 1
   end function heap_policy_available
 
   !> Keep freed memory in the process's heap for reuse (module header).  applied (optional):
-  !> .true. when the C library took the settings (glibc), .false. otherwise (nothing changed).
+  !> .true. when the C library took the settings (glibc), .false. otherwise (nothing changed:
+  !> another C library, AddressSanitizer, a memory limit).
   subroutine heap_keep_freed(applied)
     logical, intent(out), optional :: applied
     integer(c_int) :: code

@@ -11,11 +11,21 @@
  * of trimming the heap.  Peak memory stays the peak of live data (plus fragmentation);
  * memory is returned to the kernel when the process ends.
  *
+ * Not under a memory limit: with RLIMIT_AS or RLIMIT_DATA finite (ulimit -v, -d) large
+ * allocations are expected to fail, and a heap without mmap then fails OpenBLAS too: its
+ * worker threads take a 128 MB buffer with malloc, which (with M_MMAP_MAX = 0) only the
+ * main arena's brk can serve; when brk fails under the limit, the worker retries forever
+ * and the process hangs at exit waiting for it (seen in the out-of-memory tests, one run in
+ * a few under load; gdb: blas_memory_alloc -> malloc -> new_heap -> mmap, main thread in
+ * blas_thread_shutdown_).
+ *
  * Returns 0 when both settings took, 1 when glibc refused one, 2 without glibc or under
- * AddressSanitizer (whose allocator ignores mallopt; nothing done).  For programs (bin/dualsig, the benchmarks); a library never changes the
+ * AddressSanitizer (whose allocator ignores mallopt), 3 under a memory limit (nothing done
+ * in cases 2 and 3).  For programs (bin/dualsig, the benchmarks); a library never changes the
  * allocator of its caller by itself.
  */
 #include <limits.h>
+#include <sys/resource.h>
 #if defined(__GLIBC__) || defined(__linux__)
 #include <malloc.h>
 #endif
@@ -26,12 +36,21 @@
 #define DS_HEAP_POLICY 0
 #endif
 
-/* 1 when dualsig_heap_keep_freed can act in this build (glibc, no AddressSanitizer). */
-int dualsig_heap_policy_available(void) { return DS_HEAP_POLICY; }
+/* 1 when the process runs without an address-space or data-segment limit. */
+static int no_memory_limit(void)
+{
+    struct rlimit as, data;
+    if (getrlimit(RLIMIT_AS, &as) != 0 || getrlimit(RLIMIT_DATA, &data) != 0) return 0;
+    return as.rlim_cur == RLIM_INFINITY && data.rlim_cur == RLIM_INFINITY;
+}
+
+/* 1 when dualsig_heap_keep_freed would act here (glibc, no AddressSanitizer, no limit). */
+int dualsig_heap_policy_available(void) { return DS_HEAP_POLICY && no_memory_limit(); }
 
 int dualsig_heap_keep_freed(void)
 {
 #if DS_HEAP_POLICY
+    if (!no_memory_limit()) return 3;
     int ok = mallopt(M_MMAP_MAX, 0) == 1;
     ok = (mallopt(M_TRIM_THRESHOLD, INT_MAX) == 1) && ok;
     return ok ? 0 : 1;
