@@ -774,10 +774,25 @@ contains
           ', ordering ', trim(d%ordering)
         if (res%dual_method == 'multigrid') write (unit, '(a,i0,a,i0,a)') '    stream function: ', &
           d%inner_iterations, ' V-cycles in ', d%iterations, ' active-set steps (' // trim(d%inner) // &
-          trim(merge(', geometric grids', ', aggregation    ', d%inner == 'multigrid')) // ')'
+          trim(stream_grids(d%inner)) // ')'
       end associate
     end if
   end subroutine report_level
+
+  !> The grids of the P2 dual's stream-function multigrid, for the report: by the inner
+  !> solver name of dualsig_problem_dual_p2 ('multigrid': the refinements' grids).
+  pure function stream_grids(inner) result(text)
+    character(len=*), intent(in) :: inner
+    character(len=:), allocatable :: text
+    select case (trim(inner))
+    case ('multigrid')
+      text = ', geometric grids'
+    case ('multigrid_p1amg')
+      text = ', the P1 grid and aggregation below it'
+    case default
+      text = ', aggregation'
+    end select
+  end function stream_grids
 
   !> What primal_iters counts for a primal method (the column's unit).
   pure function primal_steps(method) result(steps)

@@ -26,7 +26,8 @@
 !> both: psi constant on the edge, a and b merged into one unknown, so a run of separated
 !> Gamma_a edges becomes one unknown), and R^T K R z = R^T F is solved by multigrid: the
 !> geometric hierarchy of the primal with one more grid P1 -> z of the finest mesh
-!> (mg_extend_algebraic), or smoothed aggregation on R^T K R without one.  The multipliers
+!> (mg_extend_algebraic); without one, the same grid P1 -> z of the mesh and smoothed
+!> aggregation of the P1 operator below it (p1_aggregated_hierarchy).  The multipliers
 !> of A follow from K psi - F = C_A^T mu along each chain of Gamma_a edges (mu_of_chains);
 !> a row leaves A when its multiplier is negative and joins it when it is violated.  The
 !> start is the previous level's set where it tells (stream_prolongate_set), else the
@@ -70,6 +71,12 @@ module dualsig_dual_p2_stream
   !> of one node instead leaves near-constant modes of tiny energy that the coarse grids
   !> cannot correct: 25 V-cycles instead of 12 at 10^6 unknowns.
   real(dp), parameter :: constant_shift = 1.0e-12_dp
+  !> V-cycles allowed to the hierarchy with the P1 grid and aggregation below it
+  !> (p1_aggregated_hierarchy) before a step falls back on aggregating R^T K R itself: it
+  !> needed 7-29 a step on the graded meshes of an adaptive L-shape run but stalls on
+  !> uniform meshes given as one level from about 160 x 160 cells on (not understood;
+  !> doc/performance.md)
+  integer, parameter :: p1_coarse_max_vcycles = 40
 
   !> A Gamma_a row of a kept active set (stream_dual_solve's set_keep): its flux held at 0,
   !> free, or not known (rows off Gamma_a, rows at a new vertex whose edge was half active).
@@ -87,6 +94,9 @@ module dualsig_dual_p2_stream
     integer :: nactive = 0           !! active Gamma_a rows at the end
     integer :: nrows = 0             !! Gamma_a rows
     logical :: geometric = .false.   !! the primal's geometric hierarchy was used (else aggregation)
+    !> without it: z -> P1 of the mesh, aggregation below (p1_aggregated_hierarchy; else
+    !> aggregation of R^T K R itself)
+    logical :: p1_coarse = .false.
     logical :: converged = .false.   !! the active set settled and the last solve converged
   end type stream_result_t
 
@@ -130,7 +140,7 @@ contains
     real(dp), allocatable :: f(:), psi(:), r(:), mu(:,:)
     logical, allocatable :: active(:,:), next(:,:)
     integer :: n2, step, ist
-    logical :: last_ok
+    logical :: last_ok, try_p1
 
     if (mesh%nloop /= 1) then
       call set_error(st, DS_ERR_INPUT, 'dual P2, method multigrid: the stream function needs a simply connected ' // &
@@ -166,9 +176,10 @@ contains
       end if
     end if
     last_ok = .false.
+    try_p1 = .true.
     do step = 1, settings%max_steps
       res%steps = step
-      call solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, st, mg)
+      call solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
       if (.not. is_ok(st)) return
       call rect_matvec(g, psi, x)
       call csr_matvec(k, psi, r)
@@ -198,7 +209,7 @@ contains
 
   !> One step: psi = R z with R^T K R z = R^T F for the active rows (module header), z
   !> started from psi, solved by multigrid.  last_ok: the solve converged.
-  subroutine solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, st, mg)
+  subroutine solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
     type(mesh_t), intent(in) :: mesh
     type(csr_t), intent(in) :: k
     real(dp), intent(in) :: f(:)
@@ -208,6 +219,7 @@ contains
     real(dp), intent(inout) :: psi(:)
     type(stream_result_t), intent(inout) :: res
     logical, intent(out) :: last_ok
+    logical, intent(inout) :: try_p1
     type(status_t), intent(inout) :: st
     type(mg_hierarchy_t), intent(in), optional :: mg
     type(rect_t) :: rmat, rt, pz
@@ -218,7 +230,7 @@ contains
     type(status_t) :: st_mg
     integer, allocatable :: node_of_z(:), kind(:)
     real(dp), allocatable :: fz(:), z(:), bnd(:), xyz(:,:)
-    integer :: nz, i, ist
+    integer :: nz, i, ist, max_iter_default
 
     last_ok = .false.
     call reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
@@ -242,7 +254,26 @@ contains
         res%geometric = .true.
       end if
     end if
-    if (.not. res%geometric) then
+    ms%tol = settings%tol
+    ms%fmg_cycles = merge(1, 0, all(z == 0.0_dp))
+    max_iter_default = ms%max_iter
+    res%p1_coarse = .false.
+    if (.not. res%geometric .and. try_p1) then
+      call p1_aggregated_hierarchy(mesh, kz, pz, h, res%p1_coarse)
+      if (res%p1_coarse) then
+        ms%max_iter = p1_coarse_max_vcycles
+        call multigrid_solve(h, kz, fz, kind, bnd, z, ms, mr, st_mg)
+        call mg_clear(h)
+        res%vcycles = res%vcycles + mr%iterations
+        if (.not. mr%converged) then           ! stalled: aggregation of R^T K R from here on
+          try_p1 = .false.
+          res%p1_coarse = .false.
+          z = psi(node_of_z)
+        end if
+      end if
+      try_p1 = res%p1_coarse
+    end if
+    if (.not. (res%geometric .or. res%p1_coarse)) then     ! aggregation of R^T K R itself
       allocate (xyz(2, nz), stat=ist)
       if (alloc_failed(ist, st, 'the coordinates of the stream function', 2_i8 * nz, BYTES_REAL)) return
       do i = 1, nz
@@ -251,11 +282,12 @@ contains
       call mg_build_algebraic(h, kz, st, xyz)
       if (.not. is_ok(st)) return
     end if
-    ms%tol = settings%tol
-    ms%fmg_cycles = merge(1, 0, all(z == 0.0_dp))
-    call multigrid_solve(h, kz, fz, kind, bnd, z, ms, mr, st_mg)
-    call mg_clear(h)
-    res%vcycles = res%vcycles + mr%iterations
+    if (.not. res%p1_coarse) then
+      ms%max_iter = max_iter_default
+      call multigrid_solve(h, kz, fz, kind, bnd, z, ms, mr, st_mg)
+      call mg_clear(h)
+      res%vcycles = res%vcycles + mr%iterations
+    end if
     if (.not. is_ok(st_mg) .and. .not. is_warning(st_mg)) then
       st = st_mg
       return
@@ -263,6 +295,35 @@ contains
     last_ok = mr%converged
     call rect_matvec(rmat, z, psi)
   end subroutine solve_with_active
+
+  !> The hierarchy for a mesh without refinements (level 1, Gmsh meshes, adaptive steps):
+  !> z -> P1 of the mesh by pz, as on the geometric grids, and below the P1 grid smoothed
+  !> aggregation of its operator Pz^T Kz Pz, a P1 stiffness matrix (with the Gamma_a
+  !> merges), where aggregation works as for the primal; aggregating the P2 matrix R^T K R
+  !> itself (positive off-diagonal entries, two kinds of nodes) needed 11-107 V-cycles on
+  !> the graded meshes of an adaptive run (doc/performance.md).  built: .false. when
+  !> the P1 operator could not be built or aggregated (memory, no coarsening; the caller
+  !> then aggregates R^T K R).
+  subroutine p1_aggregated_hierarchy(mesh, kz, pz, h, built)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(in) :: kz
+    type(rect_t), intent(in) :: pz
+    type(mg_hierarchy_t), intent(inout) :: h
+    logical, intent(out) :: built
+    type(rect_t) :: pzt
+    type(csr_t) :: kc
+    type(mg_hierarchy_t) :: h1
+    type(status_t) :: st
+    built = .false.
+    if (pz%n /= mesh%nnode) return
+    call amg_transpose(pz, pzt, st)
+    if (is_ok(st)) call amg_galerkin_product(pz, pzt, kz, kc, st)
+    if (is_ok(st)) call mg_build_algebraic(h1, kc, st, mesh%xy)
+    if (is_ok(st)) call mg_extend_algebraic(h1, pz, h, st)
+    call mg_clear(h1)
+    built = is_ok(st)
+    if (.not. built) call mg_clear(h)
+  end subroutine p1_aggregated_hierarchy
 
   !> psi_f = psi_c on the red refinement `fine` of `coarse` (dualsig_mesh_refine's numbering):
   !> the P2 function is unchanged.  The fine vertices are the coarse P2 nodes, with the same

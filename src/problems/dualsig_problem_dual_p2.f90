@@ -313,7 +313,7 @@ contains
     if (.not. is_ok(st)) return
     res%iterations = sres%steps
     res%inner = 'multigrid'
-    if (.not. sres%geometric) res%inner = 'multigrid_amg'
+    if (.not. sres%geometric) res%inner = trim(merge('multigrid_p1amg', 'multigrid_amg  ', sres%p1_coarse))
     res%inner_iterations = sres%vcycles
     res%converged = sres%converged
     res%nactive = sres%nactive
