@@ -1012,9 +1012,10 @@ contains
   !> no factorisation) when the grids of the uniform refinements reach this mesh (kept for
   !> it whatever the primal method: level 2 on of a uniform run), the domain is
   !> simply connected and lambda^f is the polynomial one; 'augmented' otherwise (level 1,
-  !> Gmsh meshes and adaptive steps: on those the aggregation hierarchy of the stream
-  !> function needs 11-107 V-cycles a step, with no rate independent of the grading, though
-  !> data/adapt_lshape.nml ran in 19.3 s against 23.7 s; domains with holes).
+  !> Gmsh meshes and adaptive steps: there the stream function's P1 grid with aggregation
+  !> below it took 7-29 V-cycles a step on data/adapt_lshape.nml, 8.1 s against 10.7 s, but
+  !> stalls on uniform meshes given as one level and falls back, so it is not chosen
+  !> without a hierarchy; domains with holes).
   function p2_dual_choice(an) result(method)
     type(analysis_t), intent(in) :: an
     character(len=16) :: method
