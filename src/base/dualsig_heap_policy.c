@@ -24,6 +24,8 @@
  * in cases 2 and 3).  For programs (bin/dualsig, the benchmarks); a library never changes the
  * allocator of its caller by itself.
  */
+#define _GNU_SOURCE            /* RTLD_DEFAULT */
+#include <dlfcn.h>
 #include <limits.h>
 #include <sys/resource.h>
 #if defined(__GLIBC__) || defined(__linux__)
@@ -44,12 +46,21 @@ static int no_memory_limit(void)
     return as.rlim_cur == RLIM_INFINITY && data.rlim_cur == RLIM_INFINITY;
 }
 
+/* 1 when the process runs under AddressSanitizer's allocator, which ignores mallopt: seen
+ * at run time, since this file may be compiled without -fsanitize while the Fortran is
+ * (make check-asan). */
+static int sanitizer_allocator(void) { return dlsym(RTLD_DEFAULT, "__asan_init") != NULL; }
+
 /* 1 when dualsig_heap_keep_freed would act here (glibc, no AddressSanitizer, no limit). */
-int dualsig_heap_policy_available(void) { return DS_HEAP_POLICY && no_memory_limit(); }
+int dualsig_heap_policy_available(void)
+{
+    return DS_HEAP_POLICY && !sanitizer_allocator() && no_memory_limit();
+}
 
 int dualsig_heap_keep_freed(void)
 {
 #if DS_HEAP_POLICY
+    if (sanitizer_allocator()) return 2;
     if (!no_memory_limit()) return 3;
     int ok = mallopt(M_MMAP_MAX, 0) == 1;
     ok = (mallopt(M_TRIM_THRESHOLD, INT_MAX) == 1) && ok;
