@@ -106,7 +106,9 @@ module dualsig_solver_multigrid
     logical :: coarse_ok = .false.                !! the factor is usable
     !> grids 1..nlevel-1 hold the untruncated P^T A P of the matrix setup_grids was given
     !> (set when setup_grids built every coarse operator by amg_galerkin_product; the next
-    !> untruncated galerkin_algebraic uses them instead of recomputing, and clears it)
+    !> untruncated galerkin_algebraic of the same solve uses them instead of recomputing;
+    !> cleared by it, at the end of every solve and by mg_clear, so a later solve with
+    !> another matrix never takes them)
     logical :: values_fresh = .false.
   end type mg_hierarchy_t
 
@@ -148,6 +150,7 @@ contains
     type(mg_hierarchy_t), intent(inout) :: h
     call cholesky_free(h%coarse)
     h%coarse_ok = .false.
+    h%values_fresh = .false.
     if (allocated(h%transfer)) deallocate (h%transfer)
     if (allocated(h%grid)) deallocate (h%grid)
     h%nlevel = 0
@@ -447,6 +450,7 @@ contains
     if (settings%fmg_cycles > 0 .and. h%nlevel >= 3) then
       if (all(x == 0.0_dp)) call fmg_start(h, a, f, kind, bnd, x, settings, ierr)
       if (ierr /= 0) then
+        h%values_fresh = .false.
         call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the nested start on the coarser grids')
         return
       end if
@@ -482,6 +486,7 @@ contains
         call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 0)
       end do
     end do
+    h%values_fresh = .false.          ! set for this solve's matrix only (a solve may end first)
     if (.not. is_ok(st)) then
       res%kkt_residual = huge(1.0_dp)
       return
