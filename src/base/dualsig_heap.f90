@@ -6,8 +6,8 @@
 !> 32 MB afresh and the kernel faults it in page by page, on a shared VM at about 1.2 s per
 !> GB: measured on the P2 dual at level 9 of p2_contact (doc/performance.md), its solver
 !> phases took 1.77 s instead of 2.37 s with the freed memory kept, at 4 % more peak memory.
-!> bin/dualsig and the benchmark programs call heap_keep_freed first; the library itself
-!> never does (it would change its caller's allocator).  Nothing is changed under a memory
+!> bin/dualsig and bin/dualsig_bench call heap_keep_freed first; the library itself never
+!> does (it would change its caller's allocator).  Nothing is changed under a memory
 !> limit (ulimit -v or -d): there OpenBLAS's threads need mmap (dualsig_heap_policy.c).
 module dualsig_heap
   use, intrinsic :: iso_c_binding, only: c_int
