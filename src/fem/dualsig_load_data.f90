@@ -93,7 +93,8 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)
     type(tri_rule_t) :: rule
-    real(dp), allocatable :: br(:), br_local(:)
+    type(tri_points_t) :: tp_work, tp_top(0:4)
+    real(dp), allocatable :: br(:), br_local(:), v_work(:), v_top(:,:)
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     logical :: ok1, ok2
     integer :: t, k, budget
@@ -105,6 +106,8 @@ contains
     br = [real(dp) ::]
     if (present(breaks)) br = breaks
     rule = tri_rule(5)
+    allocate (v_work(4 * rule%n), v_top(4 * rule%n, 0:4), stat=k)
+    if (alloc_failed(k, st, 'the cubature values', 24_i8 * rule%n, BYTES_REAL)) return
     call global_scales(abs_density, sq_density)
     mesh_budget = load_mesh_pieces_fixed + load_mesh_pieces_per_tri * mesh%ntri
     do t = 1, mesh%ntri
@@ -152,11 +155,13 @@ contains
       real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), tol, rho, rate
       logical :: ok_child
       integer :: c, stalled
-      coarse = piece_sums(xy, fbar, second)
+      ! the pieces of depth 0 keep their points and values from the first pass for the
+      ! second (the same pieces: f is evaluated there once)
+      coarse = piece_sums(xy, fbar, second, merge(0, -1, depth == 0))
       call children(xy, kids)
       fine = 0.0_dp
       do c = 1, 4
-        fine = fine + piece_sums(kids(:, :, c), fbar, second)
+        fine = fine + piece_sums(kids(:, :, c), fbar, second, merge(c, -1, depth == 0))
       end do
       ! the tolerance of a piece is its share (by area) of load_rel_tol times the triangle's
       ! scale: int |f| (first pass) or int f^2 + |T| f_T^2 (second pass)
@@ -220,7 +225,7 @@ contains
         pxy = mesh%xy(:, mesh%tri(:, tt))
         centroid = sum(pxy, dim=2) / 3.0_dp
         br_local = br - centroid(1)
-        sums = piece_sums(pxy - spread(centroid, 2, 3), 0.0_dp, .false.)
+        sums = piece_sums(pxy - spread(centroid, 2, 3), 0.0_dp, .false., -1)
         abs_density = abs_density + sums(5)
         sq_density = sq_density + sums(4)
         total_area = total_area + piece_area(pxy)
@@ -230,31 +235,69 @@ contains
     end subroutine global_scales
 
     !> The rule on the piece xy, in coordinates about the centroid (cut at the breaks): the
-    !> sums of the pass.
-    function piece_sums(xy, fbar, second) result(s)
+    !> sums of the pass.  slot 0..4: a piece of depth 0 (the triangle, its children), whose
+    !> points and values the first pass stores and the second pass reuses; -1: none.
+    function piece_sums(xy, fbar, second, slot) result(s)
       real(dp), intent(in) :: xy(2, 3), fbar
       logical, intent(in) :: second
+      integer, intent(in) :: slot
       real(dp) :: s(nsum)
-      type(tri_points_t) :: tp
-      real(dp) :: v, d(2)
       integer :: q
-      call tri_points_set(xy, rule, tp, br_local)
+      if (slot < 0) then
+        call tri_points_set(xy, rule, tp_work, br_local)
+        if (tp_work%n > size(v_work)) then
+          deallocate (v_work)
+          allocate (v_work(2 * tp_work%n))              ! small: the points of one piece
+        end if
+        do q = 1, tp_work%n
+          v_work(q) = f%value(centroid(1) + tp_work%p(1, q), centroid(2) + tp_work%p(2, q))
+        end do
+        data%evaluations = data%evaluations + tp_work%n
+        s = sums_of(tp_work, v_work, fbar, second)
+        return
+      end if
+      if (.not. second) then
+        call tri_points_set(xy, rule, tp_top(slot), br_local)
+        if (tp_top(slot)%n > size(v_top, 1)) call grow_top(tp_top(slot)%n)
+        do q = 1, tp_top(slot)%n
+          v_top(q, slot) = f%value(centroid(1) + tp_top(slot)%p(1, q), centroid(2) + tp_top(slot)%p(2, q))
+        end do
+        data%evaluations = data%evaluations + tp_top(slot)%n
+      end if
+      s = sums_of(tp_top(slot), v_top(:, slot), fbar, second)
+    end function piece_sums
+
+    !> v_top with room for n values a slot (the values kept).
+    subroutine grow_top(n)
+      integer, intent(in) :: n
+      real(dp), allocatable :: tmp(:,:)
+      allocate (tmp(2 * n, 0:4))                        ! small: the points of five pieces
+      tmp(1:size(v_top, 1), :) = v_top
+      call move_alloc(tmp, v_top)
+    end subroutine grow_top
+
+    !> The sums of a pass from the values v at the points tp.
+    pure function sums_of(tp, v, fbar, second) result(s)
+      type(tri_points_t), intent(in) :: tp
+      real(dp), intent(in) :: v(:), fbar
+      logical, intent(in) :: second
+      real(dp) :: s(nsum)
+      real(dp) :: d(2)
+      integer :: q
       s = 0.0_dp
       do q = 1, tp%n
-        v = f%value(centroid(1) + tp%p(1, q), centroid(2) + tp%p(2, q))
-        data%evaluations = data%evaluations + 1
         d = tp%p(:, q)
         if (second) then
-          s(1) = s(1) + tp%w(q) * (v - fbar - dot_product(slope, d))**2
-          s(2) = s(2) + tp%w(q) * v * v
+          s(1) = s(1) + tp%w(q) * (v(q) - fbar - dot_product(slope, d))**2
+          s(2) = s(2) + tp%w(q) * v(q) * v(q)
         else
-          s(1) = s(1) + tp%w(q) * v
-          s(2:3) = s(2:3) + tp%w(q) * v * d
-          s(4) = s(4) + tp%w(q) * v * v
-          s(5) = s(5) + tp%w(q) * abs(v)
+          s(1) = s(1) + tp%w(q) * v(q)
+          s(2:3) = s(2:3) + tp%w(q) * v(q) * d
+          s(4) = s(4) + tp%w(q) * v(q) * v(q)
+          s(5) = s(5) + tp%w(q) * abs(v(q))
         end if
       end do
-    end function piece_sums
+    end function sums_of
   end subroutine load_data_build
 
   !> g with M g = m, M = int_T (x - x_T)(x - x_T)^T = |T|/12 sum_k (a_k - x_T)(a_k - x_T)^T
