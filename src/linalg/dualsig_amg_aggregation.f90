@@ -211,6 +211,7 @@ contains
     integer, allocatable :: pos(:), list(:)
     real(dp) :: rho, s, omega
     integer :: i, q, j, nnz, ist, cnt, k, c
+    logical :: isolated
     allocate (dfil(a%n), acc(nagg), pos(nagg), list(nagg), p%rowptr(a%n + 1), stat=ist)
     if (alloc_failed(ist, st, 'the smoothed prolongation', 3 * a%n + 3 * nagg, BYTES_REAL)) return
     rho = 0.0_dp
@@ -223,7 +224,7 @@ contains
         if (strong(q)) s = s + abs(a%val(q))
       end do
       if (.not. dfil(i) > 0.0_dp) dfil(i) = a%val(a%diag(i))
-      rho = max(rho, 1.0_dp + s / dfil(i))
+      if (s > 0.0_dp) rho = max(rho, 1.0_dp + s / dfil(i))
       nnz = nnz + count(strong(a%rowptr(i):a%rowptr(i + 1) - 1)) + 1
     end do
     omega = 4.0_dp / (3.0_dp * rho)
@@ -237,6 +238,12 @@ contains
     p%rowptr(1) = 1
     do i = 1, a%n
       cnt = 0
+      ! a node without strong neighbours keeps its tentative row: its filtered row is its
+      ! row sum alone, and smoothing would scale the row by 1 - omega wherever that sum is
+      ! not exactly zero, so that P 1 /= 1 there (a merged Gamma_a chain of the stream
+      ! function, whose row sum is its diagonal shift: multigrid then stalled at a residual
+      ! proportional to the shift)
+      isolated = .not. any(strong(a%rowptr(i):a%rowptr(i + 1) - 1))
       do q = a%rowptr(i), a%rowptr(i + 1) - 1
         j = a%col(q)
         if (j /= i .and. .not. strong(q)) cycle
@@ -246,7 +253,9 @@ contains
           list(cnt) = c
           pos(c) = cnt
         end if
-        if (j == i) then
+        if (j == i .and. isolated) then
+          acc(c) = acc(c) + 1.0_dp
+        else if (j == i) then
           acc(c) = acc(c) + 1.0_dp - omega
         else
           acc(c) = acc(c) - omega * a%val(q) / dfil(i)
