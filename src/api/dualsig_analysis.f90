@@ -1009,19 +1009,22 @@ contains
   end subroutine solve_p2_field
 
   !> The P2 dual method of 'default' on this level: 'multigrid' (the stream function, O(N),
-  !> no factorisation) when the grids of the uniform refinements reach this mesh (kept for
-  !> it whatever the primal method: level 2 on of a uniform run), the domain is
-  !> simply connected and lambda^f is the polynomial one; 'augmented' otherwise (level 1,
-  !> Gmsh meshes and adaptive steps: there the stream function's P1 grid with aggregation
-  !> below it took 7-29 V-cycles a step on data/adapt_lshape.nml, 8.1 s against 10.7 s, but
-  !> stalls on uniform meshes given as one level and falls back, so it is not chosen
-  !> without a hierarchy; domains with holes).
+  !> no factorisation) on simply connected domains with the polynomial lambda^f, either on
+  !> the grids of the uniform refinements when they reach this mesh (level 2 on of a uniform
+  !> run, whatever the primal method) or, on a mesh without them (level 1, Gmsh meshes,
+  !> adaptive steps), from mg_auto_min_unknowns nodes on, on the P1 grid of the mesh with
+  !> smoothed aggregation below it (7-26 V-cycles a step on data/adapt_lshape.nml, 6.3 s
+  !> and 375 MB against 9.0 s and 997 MB); 'augmented' otherwise (small one-level meshes,
+  !> where the factorisation costs as much, and domains with holes).  A failed or stalled
+  !> stream-function solve falls back on 'augmented' (dual_level_p2).
   function p2_dual_choice(an) result(method)
     type(analysis_t), intent(in) :: an
     character(len=16) :: method
+    logical :: grids
     method = 'augmented'
-    if (an%mg%nlevel >= 2 .and. mg_finest_size(an%mg) == an%mesh%nnode .and. an%mesh%nloop == 1 .and. &
-        an%settings%dual_particular == 'polynomial') method = 'multigrid'
+    if (an%mesh%nloop /= 1 .or. an%settings%dual_particular /= 'polynomial') return
+    grids = an%mg%nlevel >= 2 .and. mg_finest_size(an%mg) == an%mesh%nnode
+    if (grids .or. an%mesh%nnode >= mg_auto_min_unknowns) method = 'multigrid'
   end function p2_dual_choice
 
   !> P2 (Sections 4-6): the admissible field lambda_h = lambda^f + q_h by equilibrium

@@ -1079,8 +1079,9 @@ contains
       else if (cfg%dual_enabled) then
         if (dual_method == 'default') then
           parts = parts // '; dual analysis: equilibrium elements, multigrid (the stream function, no ' // &
-            'factorisation) from level 2 on of a uniform refinement, augmented (inner solver ' // &
-            trim(cfg%dual_inner) // ') on the others'
+            'factorisation) from level 2 on of a uniform refinement and on meshes of ' // itoa(mg_auto_min_unknowns) // &
+            ' nodes or more, ' // &
+            'augmented (inner solver ' // trim(cfg%dual_inner) // ') on smaller meshes and domains with holes'
         else
           parts = parts // '; dual analysis: equilibrium elements, ' // dual_method
         end if
