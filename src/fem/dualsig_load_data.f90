@@ -253,7 +253,7 @@ contains
           v_work(q) = f%value(centroid(1) + tp_work%p(1, q), centroid(2) + tp_work%p(2, q))
         end do
         data%evaluations = data%evaluations + tp_work%n
-        s = sums_of(tp_work, v_work, fbar, second)
+        s = sums_of(tp_work, v_work, fbar, slope, second)
         return
       end if
       if (.not. second) then
@@ -264,7 +264,7 @@ contains
         end do
         data%evaluations = data%evaluations + tp_top(slot)%n
       end if
-      s = sums_of(tp_top(slot), v_top(:, slot), fbar, second)
+      s = sums_of(tp_top(slot), v_top(:, slot), fbar, slope, second)
     end function piece_sums
 
     !> v_top with room for n values a slot (the values kept).
@@ -276,29 +276,31 @@ contains
       call move_alloc(tmp, v_top)
     end subroutine grow_top
 
-    !> The sums of a pass from the values v at the points tp.
-    pure function sums_of(tp, v, fbar, second) result(s)
-      type(tri_points_t), intent(in) :: tp
-      real(dp), intent(in) :: v(:), fbar
-      logical, intent(in) :: second
-      real(dp) :: s(nsum)
-      real(dp) :: d(2)
-      integer :: q
-      s = 0.0_dp
-      do q = 1, tp%n
-        d = tp%p(:, q)
-        if (second) then
-          s(1) = s(1) + tp%w(q) * (v(q) - fbar - dot_product(slope, d))**2
-          s(2) = s(2) + tp%w(q) * v(q) * v(q)
-        else
-          s(1) = s(1) + tp%w(q) * v(q)
-          s(2:3) = s(2:3) + tp%w(q) * v(q) * d
-          s(4) = s(4) + tp%w(q) * v(q) * v(q)
-          s(5) = s(5) + tp%w(q) * abs(v(q))
-        end if
-      end do
-    end function sums_of
   end subroutine load_data_build
+
+  !> The sums of a pass (load_data_build's adapt) from the values v of f at the points tp:
+  !> the first pass, or with second int (f - fbar - slope . (x - x_T))^2 and int f^2.
+  pure function sums_of(tp, v, fbar, slope, second) result(s)
+    type(tri_points_t), intent(in) :: tp
+    real(dp), intent(in) :: v(:), fbar, slope(2)
+    logical, intent(in) :: second
+    real(dp) :: s(nsum)
+    real(dp) :: d(2)
+    integer :: q
+    s = 0.0_dp
+    do q = 1, tp%n
+      d = tp%p(:, q)
+      if (second) then
+        s(1) = s(1) + tp%w(q) * (v(q) - fbar - dot_product(slope, d))**2
+        s(2) = s(2) + tp%w(q) * v(q) * v(q)
+      else
+        s(1) = s(1) + tp%w(q) * v(q)
+        s(2:3) = s(2:3) + tp%w(q) * v(q) * d
+        s(4) = s(4) + tp%w(q) * v(q) * v(q)
+        s(5) = s(5) + tp%w(q) * abs(v(q))
+      end if
+    end do
+  end function sums_of
 
   !> g with M g = m, M = int_T (x - x_T)(x - x_T)^T = |T|/12 sum_k (a_k - x_T)(a_k - x_T)^T
   !> (exact for the second moments of a triangle about its centroid).
