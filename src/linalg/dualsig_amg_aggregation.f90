@@ -4,7 +4,9 @@
 !> adaptive steps).
 !>
 !>  1. strength of connection: j is a strong neighbour of i when
-!>     |a_ij| >= amg_strength_theta * sqrt(a_ii a_jj);
+!>     |a_ij| >= amg_strength_theta * sqrt(a_ii a_jj), or when
+!>     |a_ij| >= amg_strength_theta_min * min(a_ii, a_jj) (a node far stiffer than its
+!>     neighbours stays connected to them);
 !>  2. greedy aggregation in the three phases of Vanek-Mandel-Brezina: (1) a node none of
 !>     whose strong neighbours is aggregated yet starts an aggregate with all of them;
 !>     (2) the nodes left join the aggregate of a strong neighbour (the strongest one);
@@ -38,12 +40,21 @@ module dualsig_amg_aggregation
   implicit none
   private
 
-  public :: amg_strength_theta, amg_coarsest_max
+  public :: amg_strength_theta, amg_strength_theta_min, amg_coarsest_max
   public :: amg_prolongation, amg_transpose, amg_galerkin_product, amg_galerkin_values, amg_sweep_order
 
   !> Strength threshold of the connection graph (0.08: Vanek-Mandel-Brezina's choice for
   !> 2D; every edge of a P1 Laplacian on a shape-regular mesh is strong).
   real(dp), parameter :: amg_strength_theta = 0.08_dp
+  !> j is also a strong neighbour of i when |a_ij| >= amg_strength_theta_min min(a_ii, a_jj).
+  !> This acts only where one diagonal is about ten times the other ((0.25/0.08)^2): a node
+  !> far stiffer than its neighbours, such as a merged run of Gamma_a vertices of the stream
+  !> function (one unknown coupled to every vertex along the run).  The scaled test alone
+  !> makes such a node isolated; its neighbours' couplings to it are then lumped into their
+  !> diagonals, and the coarse spaces treat it as a free boundary where the fine operator
+  !> holds it like a fixed one: 20-46 V-cycles per solve on the graded meshes of an adaptive
+  !> run, against 9-12 with this test (doc/performance.md).
+  real(dp), parameter :: amg_strength_theta_min = 0.25_dp
   !> Coarsening stops when a grid has at most this many unknowns (solved by CHOLMOD).
   integer, parameter :: amg_coarsest_max = 2000
 
@@ -85,7 +96,8 @@ contains
     do i = 1, a%n
       do p = a%rowptr(i), a%rowptr(i + 1) - 1
         j = a%col(p)
-        strong(p) = j /= i .and. abs(a%val(p)) >= amg_strength_theta * sqrt(abs(a%val(a%diag(i)) * a%val(a%diag(j))))
+        strong(p) = j /= i .and. (abs(a%val(p)) >= amg_strength_theta * sqrt(abs(a%val(a%diag(i)) * a%val(a%diag(j)))) &
+                    .or. abs(a%val(p)) >= amg_strength_theta_min * min(abs(a%val(a%diag(i))), abs(a%val(a%diag(j)))))
       end do
     end do
   end subroutine strength_graph

@@ -73,9 +73,10 @@ module dualsig_dual_p2_stream
   real(dp), parameter :: constant_shift = 1.0e-12_dp
   !> V-cycles allowed to the hierarchy with the P1 grid and aggregation below it
   !> (p1_aggregated_hierarchy) before a step falls back on aggregating R^T K R itself: it
-  !> needed 7-29 a step on the graded meshes of an adaptive L-shape run but stalls on
-  !> uniform meshes given as one level from about 160 x 160 cells on (not understood;
-  !> doc/performance.md)
+  !> needs 4-12 a step on the graded meshes of adaptive L-shape runs and on uniform meshes
+  !> given as one level (it stalled on those until the aggregation kept the constants and
+  !> the strong connections of a merged Gamma_a run, doc/performance.md); the fallback
+  !> guards against a stall not seen yet
   integer, parameter :: p1_coarse_max_vcycles = 40
 
   !> A Gamma_a row of a kept active set (stream_dual_solve's set_keep): its flux held at 0,
