@@ -2,7 +2,8 @@
 # Work-precision of adaptive against uniform refinement (issue 14), measured in one run on
 # the same machine: for each case the uniform runs (levels = 1..LMAX, each a separate run
 # timed as a whole: grid sequencing runs every coarser level too) and one adaptive run
-# (&adapt, the elapsed_s column of its table).  Writes out/wp/<case>_uniform.csv
+# (&adapt, the elapsed_s column of its table).  Both with the default solvers (primal
+# 'auto', dual 'default'), as a user gets them.  Writes out/wp/<case>_uniform.csv
 # (level, ndof, est, energy_lo, rel_cert, seconds) and out/wp/<case>_adapt.csv (the table).
 # Usage: bench/adapt_work_precision.sh [LMAX]   (default 9; bin/dualsig must be built)
 set -euo pipefail
@@ -24,11 +25,8 @@ namelist() {  # name scene gu ga mesh levels [adapt tol ndof]
 &mesh
   $5, levels = $6
 /
-&solver
-  method = 'active_set'
-/
 &dual
-  enabled = .true., method = 'augmented'
+  enabled = .true.
 /
 NML
   if [ $# -gt 6 ]; then printf '&adapt\n  enabled = .true., tol = %s, max_ndof = %s, max_seconds = 300\n/\n' "$7" "$8"; fi

@@ -44,7 +44,8 @@ module dualsig_analysis
   use dualsig_problem_primal, only: primal_system_t, primal_constraints, primal_assemble
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_solve
   use dualsig_problem_dual_p2, only: dual_p2_settings_t, dual_p2_result_t, dual_p2_solve
-  use dualsig_dual_p2_stream, only: stream_prolongate, stream_prolongate_set
+  use dualsig_dual_p2_stream, only: stream_prolongate, stream_prolongate_set, stream_prolongate_bisection, &
+                                    stream_prolongate_set_bisection
   use dualsig_problem_dual_hdiv, only: dual_hdiv_solve, hdiv_nested_t, dual_hdiv_nested_refine, dual_hdiv_nested_free
   use dualsig_estimate_dual_hdiv, only: dual_hdiv_bounds_load, dual_hdiv_errors
   use dualsig_estimate_errors, only: p1_error_norms
@@ -469,8 +470,8 @@ contains
     if (.not. is_ok(st)) return
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
-    if (allocated(an%psi)) deallocate (an%psi)
-    if (allocated(an%psi_set)) deallocate (an%psi_set)
+    if (allocated(an%psi)) call prolongate_psi_bisection(an, finer, parents, st)
+    if (.not. is_ok(st)) return
     allocate (u_next(finer%nnode), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
     call mesh_prolongate_bisection(parents, an%u, u_next)
@@ -579,6 +580,34 @@ contains
       if (is_ok(st)) call move_alloc(set_f, an%psi_set)
     end if
   end subroutine prolongate_psi
+
+  !> The P2 dual's stream function of the last adaptive step (method 'multigrid') and its
+  !> active set on Gamma_a, carried to the bisection `finer` (parents: mesh_refine_marked's):
+  !> the start of the next step's solve (a cold start took 9-12 V-cycles a step on the
+  !> adaptive transition case, doc/performance.md).  Dropped when not of this mesh.
+  subroutine prolongate_psi_bisection(an, finer, parents, st)
+    type(analysis_t), intent(inout) :: an
+    type(mesh_t), intent(in) :: finer
+    integer, intent(in) :: parents(:,:)
+    type(status_t), intent(inout) :: st
+    real(dp), allocatable :: psi_f(:)
+    integer, allocatable :: set_f(:,:)
+    if (size(an%psi) /= an%mesh%nnode + an%mesh%nedge) then
+      deallocate (an%psi)
+      if (allocated(an%psi_set)) deallocate (an%psi_set)
+      return
+    end if
+    call stream_prolongate_bisection(an%mesh, finer, parents, an%psi, psi_f, st)
+    if (is_ok(st)) call move_alloc(psi_f, an%psi)
+    if (allocated(an%psi_set) .and. is_ok(st)) then
+      if (size(an%psi_set, 2) == an%mesh%nbedge) then
+        call stream_prolongate_set_bisection(an%mesh, finer, an%psi_set, set_f, st)
+        if (is_ok(st)) call move_alloc(set_f, an%psi_set)
+      else
+        deallocate (an%psi_set)
+      end if
+    end if
+  end subroutine prolongate_psi_bisection
 
   !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform
   !> refinement `finer` (exact, hdiv_prolongate), the start of the next level's dual solve,
@@ -1013,8 +1042,8 @@ contains
   !> the grids of the uniform refinements when they reach this mesh (level 2 on of a uniform
   !> run, whatever the primal method) or, on a mesh without them (level 1, Gmsh meshes,
   !> adaptive steps), from mg_auto_min_unknowns nodes on, on the P1 grid of the mesh with
-  !> smoothed aggregation below it (7-26 V-cycles a step on data/adapt_lshape.nml, 6.3 s
-  !> and 375 MB against 9.0 s and 997 MB); 'augmented' otherwise (small one-level meshes,
+  !> smoothed aggregation below it (7-20 V-cycles a step on data/adapt_lshape.nml, 5.5 s
+  !> and 377 MB against 9.0 s and 997 MB); 'augmented' otherwise (small one-level meshes,
   !> where the factorisation costs as much, and domains with holes).  A failed or stalled
   !> stream-function solve falls back on 'augmented' (dual_level_p2).
   function p2_dual_choice(an) result(method)

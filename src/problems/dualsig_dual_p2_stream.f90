@@ -55,7 +55,7 @@ module dualsig_dual_p2_stream
 
   public :: stream_settings_t, stream_result_t, stream_dual_solve, stream_flux_matrix, stream_stiffness, &
             stream_gamma_a_rows, stream_gamma_rows_t, stream_prolongate, stream_prolongate_set, &
-            SET_ACTIVE, SET_FREE, SET_UNKNOWN
+            stream_prolongate_bisection, stream_prolongate_set_bisection, SET_ACTIVE, SET_FREE, SET_UNKNOWN
 
   !> A row of A leaves the active set when its multiplier is below -release_tol max|mu|, a
   !> free row joins it when its flux is below -violation_tol max|x| (the linear solves are
@@ -379,6 +379,172 @@ contains
       set_f(:, 2 * j) = [mid, set_c(2, j)]
     end do
   end subroutine stream_prolongate_set
+
+  !> psi_f = psi_c on the newest-vertex bisection `fine` of `coarse` (mesh_refine_marked:
+  !> fine node coarse%nnode + k is the midpoint of the coarse edge parents(:, k), numbered in
+  !> coarse edge order): the P2 function is unchanged.  A new vertex takes the coarse
+  !> midpoint value; every fine edge midpoint lies in a coarse triangle T that holds both
+  !> its ends (a coarse vertex of T or the midpoint of an edge of T), and takes the value of
+  !> psi_c on T at the mean of their barycentric coordinates (a half of a split edge or an
+  !> unsplit edge: the trace on that edge, the same from either side).  st: DS_ERR_MEMORY;
+  !> DS_ERR_NUMERIC when a fine edge has no such triangle (not a bisection of coarse).
+  subroutine stream_prolongate_bisection(coarse, fine, parents, psi_c, psi_f, st)
+    type(mesh_t), intent(in) :: coarse, fine
+    integer, intent(in) :: parents(:,:)
+    real(dp), intent(in) :: psi_c(:)
+    real(dp), allocatable, intent(out) :: psi_f(:)
+    type(status_t), intent(out) :: st
+    integer, allocatable :: ekof(:), start(:), nbr(:), nedg(:)
+    integer :: nn, k, e, f, ist, t, side, ends(2)
+    real(dp) :: lam(3), vals(6)
+    nn = coarse%nnode
+    allocate (psi_f(fine%nnode + fine%nedge), ekof(size(parents, 2)), start(nn + 1), nbr(2 * coarse%nedge), &
+              nedg(2 * coarse%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated stream function', int(fine%nnode + fine%nedge, i8) + &
+        4_i8 * coarse%nedge, BYTES_REAL)) return
+    k = 0
+    do e = 1, coarse%nedge                ! the split edges, in edge order
+      if (k == size(parents, 2)) exit
+      if (all(coarse%edge_nodes(:, e) == parents(:, k + 1))) then
+        k = k + 1
+        ekof(k) = e
+      end if
+    end do
+    if (k /= size(parents, 2)) then
+      call set_error(st, DS_ERR_NUMERIC, 'stream_prolongate_bisection: a new vertex is not an edge midpoint')
+      return
+    end if
+    call node_edges(coarse, start, nbr, nedg)
+    psi_f(1:nn) = psi_c(1:nn)
+    psi_f(nn + 1:nn + k) = psi_c(nn + ekof)
+    do f = 1, fine%nedge
+      ends = fine%edge_nodes(:, f)
+      if (all(ends <= nn)) then            ! an unsplit coarse edge
+        e = edge_between(ends(1), ends(2))
+        if (e == 0) exit
+        psi_f(fine%nnode + f) = psi_c(nn + e)
+        cycle
+      end if
+      if (ends(1) > nn) then
+        e = ekof(ends(1) - nn)
+      else
+        e = ekof(ends(2) - nn)
+      end if
+      t = 0
+      do side = 1, 2
+        if (coarse%edge_tri(side, e) > 0) then
+          if (holds(coarse%edge_tri(side, e), ends(1)) .and. holds(coarse%edge_tri(side, e), ends(2))) &
+            t = coarse%edge_tri(side, e)
+        end if
+      end do
+      if (t == 0) exit
+      lam = 0.5_dp * (bary_of(t, ends(1)) + bary_of(t, ends(2)))
+      vals(1:3) = psi_c(coarse%tri(:, t))
+      vals(4:6) = psi_c(nn + coarse%tri_edge(:, t))
+      psi_f(fine%nnode + f) = p2_value(vals, lam)
+    end do
+    if (f <= fine%nedge) call set_error(st, DS_ERR_NUMERIC, 'stream_prolongate_bisection: fine edge ' // itoa(f) // &
+      ' lies in no coarse triangle')
+  contains
+    !> The coarse edge between coarse nodes a and b (0: none).
+    integer function edge_between(a, b) result(ee)
+      integer, intent(in) :: a, b
+      integer :: q
+      ee = 0
+      do q = start(a), start(a + 1) - 1
+        if (nbr(q) == b) ee = nedg(q)
+      end do
+    end function edge_between
+    !> Coarse triangle tt holds fine node i: i is one of its vertices, or the midpoint of one
+    !> of its edges.
+    logical function holds(tt, i)
+      integer, intent(in) :: tt, i
+      if (i <= nn) then
+        holds = any(coarse%tri(:, tt) == i)
+      else
+        holds = any(coarse%tri_edge(:, tt) == ekof(i - nn))
+      end if
+    end function holds
+    !> The barycentric coordinates of fine node i in coarse triangle tt (holds(tt, i)).
+    function bary_of(tt, i) result(b)
+      integer, intent(in) :: tt, i
+      real(dp) :: b(3)
+      integer :: q
+      b = 0.0_dp
+      do q = 1, 3
+        if (i <= nn) then
+          if (coarse%tri(q, tt) == i) b(q) = 1.0_dp
+        else if (coarse%tri_edge(q, tt) == ekof(i - nn)) then
+          b(q) = 0.5_dp
+          b(mod(q, 3) + 1) = 0.5_dp
+        end if
+      end do
+    end function bary_of
+  end subroutine stream_prolongate_bisection
+
+  !> The coarse node-to-edge lists: the edges at node i are nedg(start(i):start(i+1)-1),
+  !> their other ends nbr(...).
+  pure subroutine node_edges(mesh, start, nbr, nedg)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(out) :: start(:), nbr(:), nedg(:)
+    integer :: e, i, a, b
+    start = 0
+    do e = 1, mesh%nedge
+      a = mesh%edge_nodes(1, e)
+      b = mesh%edge_nodes(2, e)
+      start(a + 1) = start(a + 1) + 1
+      start(b + 1) = start(b + 1) + 1
+    end do
+    start(1) = 1
+    do i = 1, mesh%nnode
+      start(i + 1) = start(i + 1) + start(i)
+    end do
+    do e = 1, mesh%nedge
+      a = mesh%edge_nodes(1, e)
+      b = mesh%edge_nodes(2, e)
+      nbr(start(a)) = b
+      nedg(start(a)) = e
+      start(a) = start(a) + 1
+      nbr(start(b)) = a
+      nedg(start(b)) = e
+      start(b) = start(b) + 1
+    end do
+    do i = mesh%nnode, 1, -1
+      start(i + 1) = start(i)
+    end do
+    start(1) = 1
+  end subroutine node_edges
+
+  !> The active set of the rows (set_keep, (2, nbedge) of coarse) carried to the bisection
+  !> `fine` (mesh_refine_marked's split_boundary: the boundary edges in order, a split edge
+  !> followed by its halves (a, m), (m, b)): an unsplit edge keeps its rows, a split one as
+  !> in stream_prolongate_set.
+  subroutine stream_prolongate_set_bisection(coarse, fine, set_c, set_f, st)
+    type(mesh_t), intent(in) :: coarse, fine
+    integer, intent(in) :: set_c(:,:)
+    integer, allocatable, intent(out) :: set_f(:,:)
+    type(status_t), intent(out) :: st
+    integer :: j, nb, mid, ist
+    allocate (set_f(2, fine%nbedge), source=SET_UNKNOWN, stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated active set', 2_i8 * fine%nbedge, BYTES_INT)) return
+    nb = 0
+    do j = 1, coarse%nbedge
+      if (nb + 1 > fine%nbedge) exit
+      if (all(fine%bedge_nodes(:, nb + 1) == coarse%bedge_nodes(:, j))) then
+        nb = nb + 1
+        set_f(:, nb) = set_c(:, j)
+      else
+        if (nb + 2 > fine%nbedge) exit
+        mid = SET_UNKNOWN
+        if (all(set_c(:, j) == SET_ACTIVE)) mid = SET_ACTIVE
+        if (all(set_c(:, j) == SET_FREE)) mid = SET_FREE
+        set_f(:, nb + 1) = [set_c(1, j), mid]
+        set_f(:, nb + 2) = [mid, set_c(2, j)]
+        nb = nb + 2
+      end if
+    end do
+    if (nb /= fine%nbedge) set_f = SET_UNKNOWN      ! not the bisection's boundary: no start
+  end subroutine stream_prolongate_set_bisection
 
   !> The P2 function with vertex values vals(1:3) and edge values vals(4:6) (edge i from
   !> vertex i to i+1) at barycentric coordinates lam.
