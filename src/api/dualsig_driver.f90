@@ -59,6 +59,10 @@ module dualsig_driver
   !> Memory per triangle of a level (bytes), measured as the peak resident size of runs on
   !> the unit square at levels 5 to 8 (doc/user-guide.md, &run max_memory_gb), rounded up.
   real(dp), parameter :: p2_dual_bytes_per_tri = 5000.0_dp
+  !> The P2 dual by its stream function and multigrid (O(N): no growth with the size):
+  !> 2020-2100 bytes per triangle measured (uniform levels 9 and 10 of p2_contact, the
+  !> 1.95e6-triangle step of an adaptive L-shape run), with a quarter more as margin.
+  real(dp), parameter :: p2_stream_dual_bytes_per_tri = 2600.0_dp
   real(dp), parameter :: p1_dual_bytes_per_tri = 3000.0_dp
   real(dp), parameter :: primal_factor_bytes_per_tri = 700.0_dp
   real(dp), parameter :: primal_bytes_per_tri = 250.0_dp
@@ -413,7 +417,7 @@ contains
     else
       ntri = 4_int64 * an%mesh%ntri                   ! one uniform refinement
     end if
-    need = level_memory_gb(run%problem%kind, run%cfg%dual_enabled, run%cfg%method, ntri)
+    need = level_memory_gb(run%problem%kind, run%cfg%dual_enabled, run%cfg%method, ntri, stream_dual(run, an))
     limit = run%cfg%max_memory_gb
     what = '&run max_memory_gb = ' // rtoa(limit)
     if (limit <= 0.0_dp) then
@@ -426,19 +430,39 @@ contains
       ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
   end subroutine check_level_memory
 
+  !> The level's P2 dual will be the stream function by multigrid (dualsig_analysis's
+  !> p2_dual_choice, for the sizes where memory matters): method 'default' or 'multigrid',
+  !> the polynomial lambda^f, a simply connected domain.
+  pure logical function stream_dual(run, an)
+    type(run_t), intent(in) :: run
+    type(analysis_t), intent(in) :: an
+    integer :: nloop
+    nloop = run%problem%mesh%nloop
+    if (an%level > 0) nloop = an%mesh%nloop
+    stream_dual = run%problem%kind == PROBLEM_P2 .and. run%cfg%dual_enabled .and. &
+                  any(run%cfg%dual_method == [character(len=16) :: 'default', 'multigrid']) .and. &
+                  run%cfg%dual_particular == 'polynomial' .and. nloop == 1
+  end function stream_dual
+
   !> Estimated peak memory (GB) of one level of ntri triangles: a fixed part, and per
   !> triangle what the solvers measured on the unit square (P2 dual: the equilibrium
-  !> elements and their CHOLMOD factor; P1 dual: the vector field and its factor; the
-  !> primal alone: the matrix, and the factor for the active-set method), growing like the
-  !> fill of a nested-dissection factor, n log n, beyond 131072 triangles.
-  pure real(dp) function level_memory_gb(kind, dual, method, ntri) result(gb)
+  !> elements and their CHOLMOD factor, or with stream the stream function's multigrid; P1
+  !> dual: the vector field and its factor; the primal alone: the matrix, and the factor
+  !> for the active-set method), growing like the fill of a nested-dissection factor,
+  !> n log n, beyond 131072 triangles (not for the stream function's O(N) multigrid).
+  pure real(dp) function level_memory_gb(kind, dual, method, ntri, stream) result(gb)
     integer, intent(in) :: kind
     logical, intent(in) :: dual
     character(len=*), intent(in) :: method
     integer(int64), intent(in) :: ntri
+    logical, intent(in) :: stream
     real(dp), parameter :: base_bytes = 16.0e6_dp            !! program, libraries, coarse data
     real(dp), parameter :: calibration_ntri = 131072.0_dp    !! 2x2 square, level 8
     real(dp) :: per_tri
+    if (stream) then
+      gb = (base_bytes + p2_stream_dual_bytes_per_tri * real(ntri, dp)) / 1.0e9_dp
+      return
+    end if
     if (dual .and. kind == PROBLEM_P1) then
       per_tri = p1_dual_bytes_per_tri
     else if (dual) then
