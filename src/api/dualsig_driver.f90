@@ -407,13 +407,19 @@ contains
     type(analysis_t), intent(in) :: an
     integer, intent(in) :: level
     type(status_t), intent(out) :: st
-    real(dp) :: need, limit
+    real(dp), parameter :: adapt_growth_margin = 1.1_dp
+    real(dp) :: need, limit, growth
     integer(int64) :: ntri
     character(len=:), allocatable :: what
     if (level == 1) then
       ntri = run%problem%mesh%ntri
     else if (run%adaptive) then
-      ntri = 2_int64 * an%mesh%ntri                   ! a bisection step (Doerfler marks a part)
+      ! a bisection step: at most twice the triangles; after two steps the last step's
+      ! growth (Doerfler marks a part: 1.32-1.34 on the adaptive L-shapes) with a tenth more
+      growth = 2.0_dp
+      if (an%prev_ndof > 0 .and. an%last_ndof > an%prev_ndof) &
+        growth = min(2.0_dp, adapt_growth_margin * real(an%last_ndof, dp) / real(an%prev_ndof, dp))
+      ntri = int(growth * real(an%mesh%ntri, dp), int64)
     else
       ntri = 4_int64 * an%mesh%ntri                   ! one uniform refinement
     end if
