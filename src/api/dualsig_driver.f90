@@ -31,7 +31,7 @@ module dualsig_driver
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
                               analysis_start, analysis_next_level, exact_degree, analysis_next_step, &
                               analysis_adapt_stop, adapt_stop_text, certified_rel_error, ADAPT_GOING, &
-                              adapt_max_steps, mg_auto_min_unknowns
+                              adapt_max_steps, mg_auto_min_unknowns, analysis_free
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
   use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
@@ -289,6 +289,7 @@ contains
       if (cfg%vtk) call vtk_level(run, an%mesh, res, st)
       if (.not. is_ok(st)) then
         st%msg = run%where // ': ' // st%msg
+        call analysis_free(an)
         return
       end if
       write (unit, '(a)') table_format_row(tab, level)
@@ -317,6 +318,9 @@ contains
         st%msg = st%msg // '; writing the tables of levels 1 to ' // itoa(done) // ' failed too: ' // st_write%msg
       end if
     end if
+    ! the hierarchy's coarsest CHOLMOD factor and the nested dual's data are not allocatable
+    ! components: a run stopped before its last level (memory, a failed level) kept them
+    call analysis_free(an)
     if (present(table)) table = tab
   end subroutine run_levels
 
