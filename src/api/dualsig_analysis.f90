@@ -19,7 +19,7 @@ module dualsig_analysis
   use dualsig_clock, only: wall_seconds
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_status, only: status_t, set_error, is_ok, is_warning, is_error, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
-                            DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC
+                            DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC, DS_ERR_MEMORY
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_kinds, only: geom_rel_tol
@@ -584,29 +584,35 @@ contains
   !> The P2 dual's stream function of the last adaptive step (method 'multigrid') and its
   !> active set on Gamma_a, carried to the bisection `finer` (parents: mesh_refine_marked's):
   !> the start of the next step's solve (a cold start took 9-12 V-cycles a step on the
-  !> adaptive transition case, doc/performance.md).  Dropped when not of this mesh.
+  !> adaptive transition case, doc/performance.md).  Dropped when not of this mesh or when
+  !> it cannot be carried over (the next solve then starts cold); only running out of
+  !> memory stops the step.
   subroutine prolongate_psi_bisection(an, finer, parents, st)
     type(analysis_t), intent(inout) :: an
     type(mesh_t), intent(in) :: finer
     integer, intent(in) :: parents(:,:)
     type(status_t), intent(inout) :: st
+    type(status_t) :: st_carry
     real(dp), allocatable :: psi_f(:)
     integer, allocatable :: set_f(:,:)
-    if (size(an%psi) /= an%mesh%nnode + an%mesh%nedge) then
-      deallocate (an%psi)
-      if (allocated(an%psi_set)) deallocate (an%psi_set)
-      return
+    logical :: carried, set_carried
+    carried = size(an%psi) == an%mesh%nnode + an%mesh%nedge
+    if (carried) then
+      call stream_prolongate_bisection(an%mesh, finer, parents, an%psi, psi_f, st_carry)
+      carried = is_ok(st_carry)
+      if (carried) call move_alloc(psi_f, an%psi)
     end if
-    call stream_prolongate_bisection(an%mesh, finer, parents, an%psi, psi_f, st)
-    if (is_ok(st)) call move_alloc(psi_f, an%psi)
-    if (allocated(an%psi_set) .and. is_ok(st)) then
+    set_carried = .false.
+    if (carried .and. allocated(an%psi_set)) then
       if (size(an%psi_set, 2) == an%mesh%nbedge) then
-        call stream_prolongate_set_bisection(an%mesh, finer, an%psi_set, set_f, st)
-        if (is_ok(st)) call move_alloc(set_f, an%psi_set)
-      else
-        deallocate (an%psi_set)
+        call stream_prolongate_set_bisection(an%mesh, finer, an%psi_set, set_f, st_carry)
+        set_carried = is_ok(st_carry)
+        if (set_carried) call move_alloc(set_f, an%psi_set)
       end if
     end if
+    if (.not. carried) deallocate (an%psi)
+    if (allocated(an%psi_set) .and. .not. set_carried) deallocate (an%psi_set)
+    if (st_carry%code == DS_ERR_MEMORY) st = st_carry
   end subroutine prolongate_psi_bisection
 
   !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform

@@ -372,13 +372,21 @@ contains
     allocate (set_f(2, 2 * size(set_c, 2)), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated active set', 4_i8 * size(set_c, 2), BYTES_INT)) return
     do j = 1, size(set_c, 2)
-      mid = SET_UNKNOWN
-      if (all(set_c(:, j) == SET_ACTIVE)) mid = SET_ACTIVE
-      if (all(set_c(:, j) == SET_FREE)) mid = SET_FREE
+      mid = midpoint_state(set_c(:, j))
       set_f(:, 2 * j - 1) = [set_c(1, j), mid]
       set_f(:, 2 * j) = [mid, set_c(2, j)]
     end do
   end subroutine stream_prolongate_set
+
+  !> The state of the two rows at the midpoint of a split Gamma_a edge whose end rows are
+  !> ends: active when both were (the flux vanished on the whole edge), free when neither
+  !> was, unknown otherwise.
+  pure integer function midpoint_state(ends) result(mid)
+    integer, intent(in) :: ends(2)
+    mid = SET_UNKNOWN
+    if (all(ends == SET_ACTIVE)) mid = SET_ACTIVE
+    if (all(ends == SET_FREE)) mid = SET_FREE
+  end function midpoint_state
 
   !> psi_f = psi_c on the newest-vertex bisection `fine` of `coarse` (mesh_refine_marked:
   !> fine node coarse%nnode + k is the midpoint of the coarse edge parents(:, k), numbered in
@@ -535,9 +543,7 @@ contains
         set_f(:, nb) = set_c(:, j)
       else
         if (nb + 2 > fine%nbedge) exit
-        mid = SET_UNKNOWN
-        if (all(set_c(:, j) == SET_ACTIVE)) mid = SET_ACTIVE
-        if (all(set_c(:, j) == SET_FREE)) mid = SET_FREE
+        mid = midpoint_state(set_c(:, j))
         set_f(:, nb + 1) = [set_c(1, j), mid]
         set_f(:, nb + 2) = [mid, set_c(2, j)]
         nb = nb + 2
