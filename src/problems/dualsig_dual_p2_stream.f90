@@ -40,7 +40,7 @@
 module dualsig_dual_p2_stream
   use dualsig_kinds, only: dp, i8
   use dualsig_mesh, only: mesh_t
-  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, rect_matvec, rect_matvec_t, rect_from_triplets, csr_pattern_from_cliques, &
+  use dualsig_sparse, only: csr_t, rect_t, rect_matvec, rect_matvec_t, rect_from_triplets, csr_pattern_from_cliques, &
                             csr_add_block
   use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_product
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, multigrid_solve, mg_clear, &
@@ -55,7 +55,8 @@ module dualsig_dual_p2_stream
 
   public :: stream_settings_t, stream_result_t, stream_dual_solve, stream_flux_matrix, stream_stiffness, &
             stream_gamma_a_rows, stream_gamma_rows_t, stream_prolongate, stream_prolongate_set, &
-            stream_prolongate_bisection, stream_prolongate_set_bisection, SET_ACTIVE, SET_FREE, SET_UNKNOWN
+            stream_prolongate_bisection, stream_prolongate_set_bisection, SET_ACTIVE, SET_FREE, SET_UNKNOWN, &
+            stream_fluxes, stream_flux_load, stream_apply_stiffness, stream_reduced_basis, stream_reduced_stiffness
 
   !> A row of A leaves the active set when its multiplier is below -release_tol max|mu|, a
   !> free row joins it when its flux is below -violation_tol max|x| (the linear solves are
@@ -135,8 +136,6 @@ contains
     real(dp), intent(in), optional :: u_primal(:)
     real(dp), allocatable, intent(inout), optional :: psi_keep(:)
     integer, allocatable, intent(inout), optional :: set_keep(:,:)
-    type(rect_t) :: g
-    type(csr_t) :: k
     type(stream_gamma_rows_t) :: rows
     real(dp), allocatable :: f(:), psi(:), r(:), mu(:,:)
     logical, allocatable :: active(:,:), next(:,:)
@@ -150,14 +149,12 @@ contains
     end if
     n2 = mesh%nnode + mesh%nedge
     res%unknowns = n2
-    call stream_flux_matrix(mesh, g, st)
-    if (is_ok(st)) call stream_stiffness(mesh, k, st)
-    if (is_ok(st)) call stream_gamma_a_rows(mesh, is_gamma_a, rows, st)
+    call stream_gamma_a_rows(mesh, is_gamma_a, rows, st)
     if (.not. is_ok(st)) return
     res%nrows = 2 * rows%n
     allocate (f(n2), psi(n2), r(n2), mu(2, rows%n), active(2, rows%n), next(2, rows%n), stat=ist)
     if (alloc_failed(ist, st, 'the stream function', 3_i8 * n2 + 4_i8 * rows%n, BYTES_REAL)) return
-    call rect_matvec_t(g, bx, f)
+    call stream_flux_load(mesh, bx, f)
     active = .false.
     if (present(u_primal)) then
       active(1, :) = u_primal(rows%a) > 0.0_dp
@@ -180,10 +177,10 @@ contains
     try_p1 = .true.
     do step = 1, settings%max_steps
       res%steps = step
-      call solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
+      call solve_with_active(mesh, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
       if (.not. is_ok(st)) return
-      call rect_matvec(g, psi, x)
-      call csr_matvec(k, psi, r)
+      call stream_fluxes(mesh, psi, x)
+      call stream_apply_stiffness(mesh, psi, r)
       r = r - f
       call mu_of_chains(rows, active, r, mu)
       call next_active(rows, active, mu, x, next)
@@ -195,7 +192,7 @@ contains
     end do
     res%nactive = count(active)
     call make_monotone(rows, psi)
-    call rect_matvec(g, psi, x)
+    call stream_fluxes(mesh, psi, x)
     if (present(psi_keep)) call move_alloc(psi, psi_keep)
     if (present(set_keep)) then
       if (allocated(set_keep)) deallocate (set_keep)
@@ -210,9 +207,8 @@ contains
 
   !> One step: psi = R z with R^T K R z = R^T F for the active rows (module header), z
   !> started from psi, solved by multigrid.  last_ok: the solve converged.
-  subroutine solve_with_active(mesh, k, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
+  subroutine solve_with_active(mesh, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
     type(mesh_t), intent(in) :: mesh
-    type(csr_t), intent(in) :: k
     real(dp), intent(in) :: f(:)
     type(stream_gamma_rows_t), intent(in) :: rows
     logical, intent(in) :: active(:,:)
@@ -223,7 +219,7 @@ contains
     logical, intent(inout) :: try_p1
     type(status_t), intent(inout) :: st
     type(mg_hierarchy_t), intent(in), optional :: mg
-    type(rect_t) :: rmat, rt, pz
+    type(rect_t) :: rmat, pz
     type(csr_t) :: kz
     type(mg_hierarchy_t) :: h
     type(mg_settings_t) :: ms
@@ -234,15 +230,14 @@ contains
     integer :: nz, i, ist, max_iter_default
 
     last_ok = .false.
-    call reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
+    call stream_reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
     if (.not. is_ok(st)) return
     nz = rmat%n
-    call amg_transpose(rmat, rt, st)
-    if (is_ok(st)) call amg_galerkin_product(rmat, rt, k, kz, st)
+    call stream_reduced_stiffness(mesh, rmat, kz, st)
     if (.not. is_ok(st)) return
     allocate (fz(nz), z(nz), bnd(nz), kind(nz), stat=ist)
     if (alloc_failed(ist, st, 'the reduced stream function', 4_i8 * nz, BYTES_REAL)) return
-    call rect_matvec(rt, f, fz)
+    call rect_matvec_t(rmat, f, fz)
     z = psi(node_of_z)
     kind = BOUND_FREE
     bnd = 0.0_dp
@@ -576,84 +571,207 @@ contains
   end function p2_point
 
   !> G (2 nedge x (nnode + nedge)): the edge-end fluxes x = G psi of q = curl psi (module
-  !> header: three entries per row, the derivative of the P2 trace along the edge).
+  !> header: three entries per row, the derivative of the P2 trace along the edge).  The
+  !> solver applies G without storing it (stream_fluxes, stream_flux_load).
   subroutine stream_flux_matrix(mesh, g, st)
     type(mesh_t), intent(in) :: mesh
     type(rect_t), intent(out) :: g
     type(status_t), intent(out) :: st
     integer, allocatable :: ri(:), ci(:)
     real(dp), allocatable :: v(:)
-    real(dp) :: d(2), s, l
-    integer :: e, t, kl, n1, n2, p, ist
+    integer :: e, p, ist
     allocate (ri(6 * mesh%nedge), ci(6 * mesh%nedge), v(6 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the flux map of the stream function', 6_i8 * mesh%nedge, BYTES_REAL + 2 * BYTES_INT)) &
       return
     do e = 1, mesh%nedge
-      n1 = mesh%edge_nodes(1, e)
-      n2 = mesh%edge_nodes(2, e)
-      d = mesh%xy(:, n2) - mesh%xy(:, n1)
-      l = hypot(d(1), d(2))
-      t = mesh%edge_tri(1, e)
-      s = -1.0_dp
-      do kl = 1, 3
-        if (mesh%tri_edge(kl, t) == e .and. mesh%tri(kl, t) == n1) s = 1.0_dp
-      end do
       p = 6 * (e - 1)
       ri(p + 1:p + 3) = 2 * e - 1
       ri(p + 4:p + 6) = 2 * e
-      ci(p + 1:p + 6) = [n1, mesh%nnode + e, n2, n1, mesh%nnode + e, n2]
-      v(p + 1:p + 6) = s / l * [-3.0_dp, 4.0_dp, -1.0_dp, 1.0_dp, -4.0_dp, 3.0_dp]
+      ci(p + 1:p + 6) = [mesh%edge_nodes(1, e), mesh%nnode + e, mesh%edge_nodes(2, e), mesh%edge_nodes(1, e), &
+                         mesh%nnode + e, mesh%edge_nodes(2, e)]
+      v(p + 1:p + 6) = flux_scale(mesh, e) * [-3.0_dp, 4.0_dp, -1.0_dp, 1.0_dp, -4.0_dp, 3.0_dp]
     end do
     call rect_from_triplets(2 * mesh%nedge, mesh%nnode + mesh%nedge, ri, ci, v, g, st)
   end subroutine stream_flux_matrix
 
-  !> K: the P2 stiffness matrix (int grad phi_i . grad phi_j; the edge-midpoint rule is
-  !> exact for the quadratic integrands), vertices first, then the edge midpoints.
+  !> s_e / L_e of edge e (module header: the sign of G's rows and the edge's length).
+  pure real(dp) function flux_scale(mesh, e) result(w)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: e
+    real(dp) :: d(2)
+    integer :: n1, t, kl
+    n1 = mesh%edge_nodes(1, e)
+    d = mesh%xy(:, mesh%edge_nodes(2, e)) - mesh%xy(:, n1)
+    t = mesh%edge_tri(1, e)
+    w = -1.0_dp
+    do kl = 1, 3
+      if (mesh%tri_edge(kl, t) == e .and. mesh%tri(kl, t) == n1) w = 1.0_dp
+    end do
+    w = w / hypot(d(1), d(2))
+  end function flux_scale
+
+  !> x = G psi (stream_flux_matrix), edge by edge.
+  pure subroutine stream_fluxes(mesh, psi, x)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: psi(:)
+    real(dp), intent(out) :: x(:)
+    real(dp) :: w, pa, pm, pb
+    integer :: e
+    do e = 1, mesh%nedge
+      w = flux_scale(mesh, e)
+      pa = psi(mesh%edge_nodes(1, e))
+      pm = psi(mesh%nnode + e)
+      pb = psi(mesh%edge_nodes(2, e))
+      x(2 * e - 1) = w * (-3.0_dp * pa + 4.0_dp * pm - pb)
+      x(2 * e) = w * (pa - 4.0_dp * pm + 3.0_dp * pb)
+    end do
+  end subroutine stream_fluxes
+
+  !> f = G^T bx (stream_flux_matrix), edge by edge.
+  pure subroutine stream_flux_load(mesh, bx, f)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: bx(:)
+    real(dp), intent(out) :: f(:)
+    real(dp) :: w, x1, x2
+    integer :: e, n1, n2
+    f = 0.0_dp
+    do e = 1, mesh%nedge
+      w = flux_scale(mesh, e)
+      x1 = w * bx(2 * e - 1)
+      x2 = w * bx(2 * e)
+      n1 = mesh%edge_nodes(1, e)
+      n2 = mesh%edge_nodes(2, e)
+      f(n1) = f(n1) - 3.0_dp * x1 + x2
+      f(mesh%nnode + e) = f(mesh%nnode + e) + 4.0_dp * (x1 - x2)
+      f(n2) = f(n2) - x1 + 3.0_dp * x2
+    end do
+  end subroutine stream_flux_load
+
+  !> K: the P2 stiffness matrix (int grad phi_i . grad phi_j), vertices first, then the
+  !> edge midpoints.  The solver assembles R^T K R directly (stream_reduced_stiffness) and applies K
+  !> element by element (stream_apply_stiffness); K itself is for the tests.
   subroutine stream_stiffness(mesh, k, st)
     type(mesh_t), intent(in) :: mesh
     type(csr_t), intent(out) :: k
     type(status_t), intent(out) :: st
     integer, allocatable :: cl(:,:)
-    real(dp) :: gl(2, 3), area, ke(6, 6), gr(2, 6, 3), xy(2, 3)
-    real(dp), parameter :: lam(3, 3) = reshape([0.5_dp, 0.5_dp, 0.0_dp, 0.0_dp, 0.5_dp, 0.5_dp, 0.5_dp, 0.0_dp, &
-                                                0.5_dp], [3, 3])   ! barycentrics of the edge midpoints
-    integer :: t, q, i, j, ist
+    real(dp) :: ke(6, 6)
+    integer :: t, ist
     allocate (cl(6, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the P2 element map', 6_i8 * mesh%ntri, BYTES_INT)) return
     do t = 1, mesh%ntri
-      cl(1:3, t) = mesh%tri(:, t)
-      cl(4:6, t) = mesh%nnode + mesh%tri_edge(:, t)
+      cl(:, t) = p2_dofs(mesh, t)
     end do
     call csr_pattern_from_cliques(mesh%nnode + mesh%nedge, cl, k, st)
     if (.not. is_ok(st)) return
     k%val = 0.0_dp
     do t = 1, mesh%ntri
-      xy = mesh%xy(:, mesh%tri(:, t))
-      area = 0.5_dp * ((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
-      do i = 1, 3
-        j = mod(i, 3) + 1
-        q = mod(j, 3) + 1
-        gl(:, i) = [xy(2, j) - xy(2, q), xy(1, q) - xy(1, j)] / (2 * area)
-      end do
-      ! P2 basis: vertex i lambda_i (2 lambda_i - 1), edge i (vertices i, i+1) 4 lambda_i lambda_(i+1)
-      do q = 1, 3
-        do i = 1, 3
-          j = mod(i, 3) + 1
-          gr(:, i, q) = (4 * lam(i, q) - 1) * gl(:, i)
-          gr(:, 3 + i, q) = 4 * (lam(j, q) * gl(:, i) + lam(i, q) * gl(:, j))
-        end do
-      end do
-      ke = 0.0_dp
-      do q = 1, 3
-        do j = 1, 6
-          do i = 1, 6
-            ke(i, j) = ke(i, j) + area / 3 * dot_product(gr(:, i, q), gr(:, j, q))
-          end do
-        end do
-      end do
+      call p2_element_stiffness(mesh%xy(:, mesh%tri(:, t)), ke)
       call csr_add_block(k, cl(:, t), ke)
     end do
   end subroutine stream_stiffness
+
+  !> The P2 values of triangle t: its vertices, then the midpoints of its edges (edge i from
+  !> vertex i to vertex i + 1).
+  pure function p2_dofs(mesh, t) result(cl)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: t
+    integer :: cl(6)
+    cl(1:3) = mesh%tri(:, t)
+    cl(4:6) = mesh%nnode + mesh%tri_edge(:, t)
+  end function p2_dofs
+
+  !> The P2 element stiffness matrix of the triangle xy (local order of p2_dofs; the
+  !> edge-midpoint rule is exact for the quadratic integrands).
+  pure subroutine p2_element_stiffness(xy, ke)
+    real(dp), intent(in) :: xy(2, 3)
+    real(dp), intent(out) :: ke(6, 6)
+    real(dp), parameter :: lam(3, 3) = reshape([0.5_dp, 0.5_dp, 0.0_dp, 0.0_dp, 0.5_dp, 0.5_dp, 0.5_dp, 0.0_dp, &
+                                                0.5_dp], [3, 3])   ! barycentrics of the edge midpoints
+    real(dp) :: gl(2, 3), area, gr(2, 6, 3)
+    integer :: q, i, j
+    area = 0.5_dp * ((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
+    do i = 1, 3
+      j = mod(i, 3) + 1
+      q = mod(j, 3) + 1
+      gl(:, i) = [xy(2, j) - xy(2, q), xy(1, q) - xy(1, j)] / (2 * area)
+    end do
+    ! P2 basis: vertex i lambda_i (2 lambda_i - 1), edge i (vertices i, i+1) 4 lambda_i lambda_(i+1)
+    do q = 1, 3
+      do i = 1, 3
+        j = mod(i, 3) + 1
+        gr(:, i, q) = (4 * lam(i, q) - 1) * gl(:, i)
+        gr(:, 3 + i, q) = 4 * (lam(j, q) * gl(:, i) + lam(i, q) * gl(:, j))
+      end do
+    end do
+    ke = 0.0_dp
+    do q = 1, 3
+      do j = 1, 6
+        do i = 1, 6
+          ke(i, j) = ke(i, j) + area / 3 * dot_product(gr(:, i, q), gr(:, j, q))
+        end do
+      end do
+    end do
+  end subroutine p2_element_stiffness
+
+  !> kpsi = K psi (stream_stiffness), element by element.
+  pure subroutine stream_apply_stiffness(mesh, psi, kpsi)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), intent(in) :: psi(:)
+    real(dp), intent(out) :: kpsi(:)
+    real(dp) :: ke(6, 6)
+    integer :: t, cl(6)
+    kpsi = 0.0_dp
+    do t = 1, mesh%ntri
+      cl = p2_dofs(mesh, t)
+      call p2_element_stiffness(mesh%xy(:, mesh%tri(:, t)), ke)
+      kpsi(cl) = kpsi(cl) + matmul(ke, psi(cl))
+    end do
+  end subroutine stream_apply_stiffness
+
+  !> kz = R^T K R (stream_reduced_basis), assembled element by element without K: element t adds
+  !> R_t^T K_t R_t, R_t the rows of R at its P2 values.  Every row of R has one or two
+  !> entries, and the second entry of a row (an eliminated midpoint) is the first entry of an
+  !> end of its edge, a value of the same triangle: the first entries of the six rows hold
+  !> all columns of R_t, the element's clique in z.
+  subroutine stream_reduced_stiffness(mesh, rmat, kz, st)
+    type(mesh_t), intent(in) :: mesh
+    type(rect_t), intent(in) :: rmat
+    type(csr_t), intent(out) :: kz
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: cz(:,:)
+    real(dp) :: ke(6, 6), w
+    integer :: t, i, j, p, q, r, cl(6), ist
+    allocate (cz(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced element map', 6_i8 * mesh%ntri, BYTES_INT)) return
+    do t = 1, mesh%ntri
+      cl = p2_dofs(mesh, t)
+      cz(:, t) = rmat%col(rmat%rowptr(cl))
+    end do
+    call csr_pattern_from_cliques(rmat%n, cz, kz, st)
+    if (.not. is_ok(st)) return
+    deallocate (cz)
+    kz%val = 0.0_dp
+    do t = 1, mesh%ntri
+      cl = p2_dofs(mesh, t)
+      call p2_element_stiffness(mesh%xy(:, mesh%tri(:, t)), ke)
+      do j = 1, 6
+        do q = rmat%rowptr(cl(j)), rmat%rowptr(cl(j) + 1) - 1
+          do i = 1, 6
+            w = ke(i, j) * rmat%val(q)
+            do p = rmat%rowptr(cl(i)), rmat%rowptr(cl(i) + 1) - 1
+              do r = kz%rowptr(rmat%col(p)), kz%rowptr(rmat%col(p) + 1) - 1
+                if (kz%col(r) == rmat%col(q)) then
+                  kz%val(r) = kz%val(r) + rmat%val(p) * w
+                  exit
+                end if
+              end do
+            end do
+          end do
+        end do
+      end do
+    end do
+  end subroutine stream_reduced_stiffness
 
   !> The Gamma_a edges in boundary order (stream_gamma_rows_t), each chain of consecutive Gamma_a
   !> edges from its first edge on.
@@ -698,7 +816,7 @@ contains
   !> prolongation pz (nz x nnode) from the P1 values of the mesh (a vertex unknown takes its
   !> vertex's value, a midpoint the mean of its edge's ends), node_of_z(nz) the P2 node that
   !> carries unknown z (a merged run: its representative vertex).
-  subroutine reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
+  subroutine stream_reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
     type(mesh_t), intent(in) :: mesh
     type(stream_gamma_rows_t), intent(in) :: rows
     logical, intent(in) :: active(:,:)
@@ -775,7 +893,7 @@ contains
       ci(nt) = col
       v(nt) = val
     end subroutine add
-  end subroutine reduced_basis
+  end subroutine stream_reduced_basis
 
   !> Union of the sets of i and j (rep: parent links, roots point to themselves).
   pure subroutine merge_sets(rep, i, j)
