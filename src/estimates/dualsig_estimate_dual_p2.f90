@@ -19,7 +19,7 @@ module dualsig_estimate_dual_p2
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
   use dualsig_load_data, only: load_data_t
   use dualsig_elements_p1, only: p1_gradients
-  use dualsig_elements_equilibrium, only: equilibrium_field
+  use dualsig_elements_equilibrium, only: equilibrium_field, equilibrium_c_of
   use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_value
   use dualsig_status, only: status_t
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
@@ -88,7 +88,7 @@ contains
         lv = findloc(mesh%tri(:, t), mesh%bedge_nodes(i, j), dim=1)
         bary = 0.0_dp
         bary(lv) = 1.0_dp
-        flux(i) = max(0.0_dp, dot_product(equilibrium_field(field%c(:, :, t), field%beta(:, t), bary), &
+        flux(i) = max(0.0_dp, dot_product(equilibrium_field(equilibrium_c_of(mesh%xy(:, mesh%tri(:, t))), field%beta(:, t), bary), &
                                           mesh%bedge_normal(:, j)) - field%pf%gh(i, j))
         ub(i) = u(mesh%bedge_nodes(i, j))
       end do
@@ -127,7 +127,7 @@ contains
     type(dual_p2_bounds_t), intent(out) :: bnd
     type(status_t), intent(out) :: st
     integer :: ist
-    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, lsq, osc_t
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, lsq, osc_t, c(6, 6), beta(6)
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp
     integer :: t, k
@@ -144,8 +144,10 @@ contains
       gu = matmul(grad, ue)
       e1 = 0.0_dp
       call tri_points_set(xy, rule, tp, [real(dp) ::])
+      c = equilibrium_c_of(xy)
+      beta = field%beta(:, t) + field%beta_f(:, t)
       do k = 1, tp%n
-        lam = equilibrium_field(field%c(:, :, t), field%beta(:, t) + field%beta_f(:, t), tp%bary(:, k)) + &
+        lam = equilibrium_field(c, beta, tp%bary(:, k)) + &
               bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
         e1 = e1 + tp%w(k) * sum((lam - gu)**2)
         lsq = lsq + tp%w(k) * sum(lam**2)
@@ -181,8 +183,9 @@ contains
         lv = findloc(mesh%tri(:, t), mesh%bedge_nodes(i, j), dim=1)
         bary = 0.0_dp
         bary(lv) = 1.0_dp
-        flux(i) = max(0.0_dp, dot_product(equilibrium_field(field%c(:, :, t), field%beta(:, t) + field%beta_f(:, t), &
-                                                            bary), mesh%bedge_normal(:, j)))
+        flux(i) = max(0.0_dp, dot_product(equilibrium_field(equilibrium_c_of(mesh%xy(:, mesh%tri(:, t))), &
+                                                            field%beta(:, t) + field%beta_f(:, t), bary), &
+                                          mesh%bedge_normal(:, j)))
         ub(i) = u(mesh%bedge_nodes(i, j))
       end do
       e1 = 2.0_dp * len / 6.0_dp * (2.0_dp * flux(1) * ub(1) + flux(1) * ub(2) + flux(2) * ub(1) &

@@ -27,7 +27,7 @@ module dualsig_assembly_equilibrium
 
   public :: equilibrium_map_t, equilibrium_map, equilibrium_elements, assemble_equilibrium_global, &
             equilibrium_to_global, equilibrium_to_local, equilibrium_div_rows_global, &
-            equilibrium_rows_local, equilibrium_gamma_a_dofs
+            equilibrium_rows_local, equilibrium_gamma_a_dofs, equilibrium_div_coefficients
 
   type :: equilibrium_map_t
     integer :: ntri = 0
@@ -77,6 +77,25 @@ contains
       call equilibrium_div_row(xy, d(:, t))
     end do
   end subroutine equilibrium_elements
+
+  !> The divergence rows d(6, ntri) of (4.9) alone, each triangle checked as
+  !> equilibrium_elements checks it (C_e^{-1} not singular); for the solvers that need
+  !> neither C_e nor A_e stored (the fields compute C_e where they are evaluated).
+  subroutine equilibrium_div_coefficients(mesh, d, st)
+    type(mesh_t), intent(in) :: mesh
+    real(dp), allocatable, intent(out) :: d(:,:)
+    type(status_t), intent(out) :: st
+    real(dp) :: xy(2, 3), c(6, 6)
+    integer :: t, ist
+    allocate (d(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the divergence rows', 6_i8 * mesh%ntri, BYTES_REAL)) return
+    do t = 1, mesh%ntri
+      xy = mesh%xy(:, mesh%tri(:, t))
+      call equilibrium_c_matrix(xy, c, st)
+      if (st%code /= 0) return
+      call equilibrium_div_row(xy, d(:, t))
+    end do
+  end subroutine equilibrium_div_coefficients
 
   !> A = sum_e P_e^T A_e P_e in the global edge-end unknowns (2 nedge), CSR.
   !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).

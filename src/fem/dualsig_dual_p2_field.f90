@@ -1,6 +1,6 @@
 !> The admissible dual field of problem P2 (Sections 4-6): lambda^h = lambda^f + q^h, q^h
-!> the equilibrium-element field given by the element matrices C_e and flux parameters
-!> beta_e (Section 4), and the particular field lambda^f either
+!> the equilibrium-element field given by its flux parameters beta_e (Section 4; the
+!> element matrices C_e are computed where the field is evaluated, equilibrium_c_of), and the particular field lambda^f either
 !>  - polynomial (the default): div lambda^f = -Pi_1 f on every triangle (Pi_1 f = f_T +
 !>    g_T . (x - x_T), the L2 projection onto linear functions) and lambda^f . nu = 0 on
 !>    Gamma_a: a piecewise linear part in the same parameters, beta_f, with div = -f_T, plus
@@ -18,7 +18,7 @@ module dualsig_dual_p2_field
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_elements_equilibrium, only: equilibrium_field
+  use dualsig_elements_equilibrium, only: equilibrium_field_xy
   use dualsig_particular_field, only: particular_field_t, lambda_f_at
   implicit none
   private
@@ -30,7 +30,6 @@ module dualsig_dual_p2_field
     type(particular_field_t) :: pf          !! lambda^f = lambda_bar + curl(omega) (not polynomial)
     real(dp), allocatable :: beta_f(:,:)    !! (6, ntri) flux parameters of lambda^f (polynomial)
     real(dp), allocatable :: bubble(:,:)    !! (3, ntri) c_i of the bubble sigma_T (polynomial)
-    real(dp), allocatable :: c(:,:,:)       !! (6, 6, ntri) C_e
     real(dp), allocatable :: beta(:,:)      !! (6, ntri) flux parameters of q^h
   end type dual_p2_field_t
 
@@ -54,11 +53,14 @@ contains
       do k = 1, 3
         xy(:, k) = mesh%xy(:, mesh%tri(k, t))
       end do
-      v = equilibrium_field(field%c(:, :, t), beta, bary) + bubble_value(xy, field%bubble(:, t), bary)
+      v = equilibrium_field_xy(xy, beta, bary) + bubble_value(xy, field%bubble(:, t), bary)
       return
     end if
-    p = matmul(mesh%xy(:, mesh%tri(:, t)), bary)
-    v = lambda_f_at(field%pf, mesh, f, t, p(1), p(2)) + equilibrium_field(field%c(:, :, t), field%beta(:, t), bary)
+    do k = 1, 3
+      xy(:, k) = mesh%xy(:, mesh%tri(k, t))
+    end do
+    p = matmul(xy, bary)
+    v = lambda_f_at(field%pf, mesh, f, t, p(1), p(2)) + equilibrium_field_xy(xy, field%beta(:, t), bary)
   end function dual_p2_lambda
 
   !> The coefficients c of the bubble with div sigma = -g . (x - x_T) on the triangle xy.

@@ -29,7 +29,7 @@ module dualsig_elements_equilibrium
 
   public :: param_side, param_vertex, equilibrium_sides, equilibrium_c_matrix, &
             equilibrium_element_matrix, equilibrium_div_row, equilibrium_element_load, &
-            equilibrium_field
+            equilibrium_field, equilibrium_c_of, equilibrium_field_xy
 
   integer, parameter :: param_side(6) = [3, 1, 1, 2, 2, 3]     !! side of parameter k
   integer, parameter :: param_vertex(6) = [1, 1, 2, 2, 3, 3]   !! vertex of parameter k
@@ -80,6 +80,16 @@ contains
       c(k2, k2) = n(1, 1) / det
     end do
   end subroutine equilibrium_c_matrix
+
+  !> C_e of a triangle known to be non-degenerate (equilibrium_c_matrix has accepted it):
+  !> the fields keep their flux parameters only and compute C_e where they are evaluated,
+  !> a few operations instead of 288 bytes per triangle in memory.
+  pure function equilibrium_c_of(xy) result(c)
+    real(dp), intent(in) :: xy(2, 3)
+    real(dp) :: c(6, 6)
+    type(status_t) :: st
+    call equilibrium_c_matrix(xy, c, st)
+  end function equilibrium_c_of
 
   !> A_e = C_e^T kron(M_e, I_2) C_e: beta^T A_e beta = int_T |q|^2  (4.6).  With C_e block
   !> diagonal (2 x 2 blocks C_v), block (v, w) of A_e is M_e(v, w) C_v^T C_w.
@@ -139,4 +149,12 @@ contains
     w = matmul(c, beta)
     q = bary(1) * w(1:2) + bary(2) * w(3:4) + bary(3) * w(5:6)
   end function equilibrium_field
+
+  !> q(x) = Phi(x)^T C_e beta on the triangle xy (equilibrium_field with C_e computed by
+  !> equilibrium_c_of), at the point with barycentric coordinates bary.
+  pure function equilibrium_field_xy(xy, beta, bary) result(q)
+    real(dp), intent(in) :: xy(2, 3), beta(6), bary(3)
+    real(dp) :: q(2)
+    q = equilibrium_field(equilibrium_c_of(xy), beta, bary)
+  end function equilibrium_field_xy
 end module dualsig_elements_equilibrium

@@ -38,8 +38,8 @@ module dualsig_problem_dual_p2
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER
   use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
   use dualsig_solver_augmented, only: augmented_settings_t, augmented_result_t, augmented_solve
-  use dualsig_elements_equilibrium, only: equilibrium_element_load
-  use dualsig_assembly_equilibrium, only: equilibrium_map_t, equilibrium_map, equilibrium_elements, &
+  use dualsig_elements_equilibrium, only: equilibrium_element_load, equilibrium_c_of, equilibrium_element_matrix
+  use dualsig_assembly_equilibrium, only: equilibrium_map_t, equilibrium_map, equilibrium_elements, equilibrium_div_coefficients, &
                                           assemble_equilibrium_global, equilibrium_to_global, &
                                           equilibrium_to_local, equilibrium_div_rows_global, &
                                           equilibrium_rows_local, equilibrium_gamma_a_dofs
@@ -150,7 +150,7 @@ contains
     !> stream_prolongate_set), on return the final one
     integer, allocatable, intent(inout), optional :: active_set(:,:)
     type(equilibrium_map_t) :: map
-    real(dp), allocatable :: ae(:,:,:), d(:,:), be(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:), gh(:,:)
+    real(dp), allocatable :: ae(:,:,:), c(:,:,:), d(:,:), be(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:), gh(:,:)
     logical, allocatable :: on_gamma_a(:)
     integer, allocatable :: kind(:), row_kind(:)
     type(csr_t) :: a
@@ -167,14 +167,19 @@ contains
     call dual_p2_check_assumptions(mesh, is_gamma_a, st)
     if (st%code /= 0) return
     t0 = wall_seconds()
-    call equilibrium_elements(mesh, field%c, ae, d, st)
+    if (trim(settings%method) == 'multigrid') then     ! the stream function needs neither C_e nor A_e
+      call equilibrium_div_coefficients(mesh, d, st)
+    else
+      call equilibrium_elements(mesh, c, ae, d, st)
+      if (allocated(c)) deallocate (c)                 ! computed where the field is evaluated
+    end if
     if (st%code /= 0) return
     call equilibrium_map(mesh, map, st)
     if (.not. is_ok(st)) return
     res%seconds_elements = lap(t0)
     select case (trim(settings%particular))
     case ('polynomial')
-      call particular_polynomial(mesh, f, map, ae, d, is_gamma_a, field, be, st, breaks, load)
+      call particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load)
       if (.not. is_ok(st)) return
       res%seconds_particular = lap(t0)
       allocate (gh(2, mesh%nbedge), stat=ist)
@@ -234,7 +239,6 @@ contains
       res%nactive = ares%nactive
       res%residual = ares%kkt_residual
     case ('multigrid')
-      deallocate (ae)                                   ! in the loads already; the stream function needs K only
       call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
       if (.not. is_ok(st)) return
       where (on_gamma_a) x = max(x, bnd)
@@ -328,11 +332,11 @@ contains
   !> div = -g_T . (x - x_T); and the element loads b_e = -A_e beta_f - C_e^T int sigma . Phi
   !> of (4.7), exact ((lambda^f, q) = beta_f^T A_e beta for fields of the same element; the
   !> bubble part is a cubic, integrated by the degree-5 rule).
-  subroutine particular_polynomial(mesh, f, map, ae, d, is_gamma_a, field, be, st, breaks, load)
+  subroutine particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(equilibrium_map_t), intent(in) :: map
-    real(dp), intent(in) :: ae(:,:,:), d(:,:)
+    real(dp), intent(in) :: d(:,:)
     logical, intent(in) :: is_gamma_a(:)
     type(dual_p2_field_t), intent(inout) :: field
     real(dp), allocatable, intent(out) :: be(:,:)
@@ -341,7 +345,7 @@ contains
     type(load_data_t), intent(in), optional :: load
     type(load_data_t) :: own
     real(dp), allocatable :: xf(:), target(:), slope(:,:), lam(:,:)
-    real(dp) :: xy(2, 3)
+    real(dp) :: xy(2, 3), c(6, 6), ae(6, 6)
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp
     integer :: t, k, ist
@@ -373,8 +377,10 @@ contains
       do k = 1, tp%n
         lam(:, k) = bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
       end do
-      call equilibrium_element_load(field%c(:, :, t), tp, lam, be(:, t))
-      be(:, t) = be(:, t) - matmul(ae(:, :, t), field%beta_f(:, t))
+      c = equilibrium_c_of(xy)
+      call equilibrium_element_matrix(xy, c, ae)
+      call equilibrium_element_load(c, tp, lam, be(:, t))
+      be(:, t) = be(:, t) - matmul(ae, field%beta_f(:, t))
     end do
   end subroutine particular_polynomial
 
@@ -412,7 +418,7 @@ contains
       do k = 1, tp%n
         lam(:, k) = lambda_f_at(field%pf, mesh, f, t, tp%p(1, k), tp%p(2, k))
       end do
-      call equilibrium_element_load(field%c(:, :, t), tp, lam, be(:, t))
+      call equilibrium_element_load(equilibrium_c_of(mesh%xy(:, mesh%tri(:, t))), tp, lam, be(:, t))
     end do
   end subroutine stream_loads
 
