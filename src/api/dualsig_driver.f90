@@ -60,9 +60,10 @@ module dualsig_driver
   !> the unit square at levels 5 to 8 (doc/user-guide.md, &run max_memory_gb), rounded up.
   real(dp), parameter :: p2_dual_bytes_per_tri = 5000.0_dp
   !> The P2 dual by its stream function and multigrid (O(N): no growth with the size):
-  !> 2020-2100 bytes per triangle measured (uniform levels 9 and 10 of p2_contact, the
-  !> 1.95e6-triangle step of an adaptive L-shape run), with a quarter more as margin.
-  real(dp), parameter :: p2_stream_dual_bytes_per_tri = 2600.0_dp
+  !> 1345-1395 bytes per triangle measured (uniform levels 9 and 10 of p2_contact, the
+  !> 2.6e6-triangle step of the adaptive transition L-shape run; without the global P2
+  !> stiffness matrix and the stored C_e), with a quarter more as margin.
+  real(dp), parameter :: p2_stream_dual_bytes_per_tri = 1750.0_dp
   real(dp), parameter :: p1_dual_bytes_per_tri = 3000.0_dp
   real(dp), parameter :: primal_factor_bytes_per_tri = 700.0_dp
   real(dp), parameter :: primal_bytes_per_tri = 250.0_dp
