@@ -42,6 +42,7 @@ module dualsig_driver
                             vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, &
                             mesh_edges_path
   use dualsig_strings, only: itoa, rtoa
+  use dualsig_clock, only: resident_memory_mb
   use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
                               text_abandon, memory_available_gb
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
@@ -413,6 +414,7 @@ contains
     integer, intent(in) :: level
     type(status_t), intent(out) :: st
     real(dp), parameter :: adapt_growth_margin = 1.1_dp
+    real(dp), parameter :: mib_bytes = 1048576.0_dp
     real(dp) :: need, limit, growth
     integer(int64) :: ntri
     character(len=:), allocatable :: what
@@ -432,9 +434,13 @@ contains
     limit = run%cfg%max_memory_gb
     what = '&run max_memory_gb = ' // rtoa(limit)
     if (limit <= 0.0_dp) then
+      ! the level's estimate is the whole process's peak: what the process holds already
+      ! (its live data, and the heap it keeps for reuse, dualsig_heap) counts as available
       limit = memory_available_gb()
-      what = 'the available memory (MemAvailable of /proc/meminfo) ' // rtoa(limit) // ' GB'
       if (limit <= 0.0_dp) return                     ! unknown: no limit
+      limit = limit + resident_memory_mb() * mib_bytes / 1.0e9_dp
+      what = 'the available memory (MemAvailable of /proc/meminfo and this process''s resident memory) ' // &
+             rtoa(limit) // ' GB'
     end if
     if (need > limit) call set_error(st, DS_ERR_INPUT, 'level ' // itoa(level) // ': ' // int8_text(ntri) // &
       ' triangles need an estimated ' // rtoa(need) // ' GB, more than ' // what // &
