@@ -61,9 +61,9 @@ module dualsig_driver
   !> the unit square at levels 5 to 8 (doc/user-guide.md, &run max_memory_gb), rounded up.
   real(dp), parameter :: p2_dual_bytes_per_tri = 5000.0_dp
   !> The P2 dual by its stream function and multigrid (O(N): no growth with the size):
-  !> 1345-1395 bytes per triangle measured (uniform levels 9 and 10 of p2_contact, the
-  !> 2.6e6-triangle step of the adaptive transition L-shape run; without the global P2
-  !> stiffness matrix and the stored C_e), with a quarter more as margin.
+  !> 1367-1459 bytes per triangle measured (peak resident size of uniform levels 9 and 10
+  !> of p2_contact, the 2.6e6- and 1.08e7-triangle steps of the adaptive transition L-shape
+  !> run; without the global P2 stiffness matrix and the stored C_e), a fifth or more as margin.
   real(dp), parameter :: p2_stream_dual_bytes_per_tri = 1750.0_dp
   real(dp), parameter :: p1_dual_bytes_per_tri = 3000.0_dp
   real(dp), parameter :: primal_factor_bytes_per_tri = 700.0_dp
