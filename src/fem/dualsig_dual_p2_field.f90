@@ -1,6 +1,7 @@
 !> The admissible dual field of problem P2 (Sections 4-6): lambda^h = lambda^f + q^h, q^h
 !> the equilibrium-element field given by its flux parameters beta_e (Section 4; the
-!> element matrices C_e are computed where the field is evaluated, equilibrium_c_of), and the particular field lambda^f either
+!> element matrices C_e are computed where the field is evaluated, equilibrium_c_of), and
+!> the particular field lambda^f either
 !>  - polynomial (the default): div lambda^f = -Pi_1 f on every triangle (Pi_1 f = f_T +
 !>    g_T . (x - x_T), the L2 projection onto linear functions) and lambda^f . nu = 0 on
 !>    Gamma_a: a piecewise linear part in the same parameters, beta_f, with div = -f_T, plus
