@@ -62,6 +62,7 @@ module dualsig_analysis
   public :: dual_spaces, mg_auto_min_unknowns
   public :: analysis_progress
   public :: adapt_settings_t, analysis_next_step, analysis_adapt_stop, adapt_stop_text, certified_rel_error
+  public :: analysis_aim_growth, adapt_aim_growth, adapt_aim_margin, adapt_aim_rate_max
   public :: ADAPT_GOING, ADAPT_STOP_TOL, ADAPT_STOP_NDOF, ADAPT_STOP_SECONDS, ADAPT_STOP_STEPS, adapt_max_steps
 
   !> Degree of the quadrature of the load vectors (>= 5 as required; Radon's rule).
@@ -94,6 +95,21 @@ module dualsig_analysis
   !> Triangles with an area below this times geom_rel_tol diameter^2 (the zero-area test of
   !> mesh_build_topology) are not marked: their children could fail that test.
   real(dp), parameter :: adapt_area_floor = 1.0e3_dp
+  !> The step that should reach tol aims at it (analysis_aim_growth): the unknowns the
+  !> observed rate p of sqrt(est) ~ ndof^(-p) asks for, times adapt_aim_margin (a step
+  !> short of tol costs a whole further step, one past it only its excess); p is taken at
+  !> most adapt_aim_rate_max (the optimal rate of P1 elements in 2D, so a faster
+  !> pre-asymptotic decay does not shorten the step), and below adapt_aim_rate_min the
+  !> prediction is not used.  The refinement is redone at most adapt_aim_tries times with
+  !> fewer marks (scaled by the ratio of allowed to obtained new nodes, times
+  !> adapt_aim_shrink) until its new nodes stay within the aim.
+  real(dp), parameter :: adapt_aim_margin = 1.1_dp
+  real(dp), parameter :: adapt_aim_rate_max = 0.5_dp
+  real(dp), parameter :: adapt_aim_rate_min = 0.1_dp
+  real(dp), parameter :: adapt_aim_shrink = 0.98_dp
+  integer, parameter :: adapt_aim_tries = 5
+  !> Growths beyond this are not aims (a bisection step at most doubles the triangles).
+  real(dp), parameter :: adapt_aim_growth_max = 2.0_dp
 
   !> The adaptive loop solve -> estimate -> mark (Doerfler) -> refine (newest-vertex
   !> bisection): analysis_next_step, analysis_adapt_stop.
@@ -237,6 +253,9 @@ module dualsig_analysis
     real(dp) :: step_seconds = 0.0_dp       !! wall time of the whole level / step
     real(dp) :: elapsed_seconds = 0.0_dp    !! wall time since analysis_start
     integer :: nmarked = 0                  !! adaptive: triangles marked on the previous step
+    !> adaptive: the growth of the unknowns this step aimed at to reach tol
+    !> (analysis_aim_growth; 0: Doerfler's set as it is)
+    real(dp) :: aim_growth = 0.0_dp
     integer :: nheld = 0                    !! adaptive: triangles not marked: at the area floor (adapt_area_floor)
     integer :: max_depth = 0                !! adaptive: most bisections from a coarse triangle
     ! warnings of this level (codes DS_WARN_*, messages without the level)
@@ -263,6 +282,8 @@ module dualsig_analysis
     real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
     real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
     integer :: last_ndof = 0, prev_ndof = 0 !! unknowns of the last two levels / steps
+    !> their certified relative errors (certified_rel_error; huge: not certified)
+    real(dp) :: last_rel = huge(1.0_dp), prev_rel = huge(1.0_dp)
     type(tri_rule_t) :: load_rule, exact_rule, bound_rule_p1, bound_rule_p2
     type(mg_hierarchy_t) :: mg              !! method 'multigrid': the grids of the uniform refinements so far
   end type analysis_t
@@ -431,7 +452,6 @@ contains
     type(level_result_t), intent(out) :: res
     type(status_t), intent(out) :: st
     type(mesh_t) :: finer
-    logical, allocatable :: marked(:)
     integer, allocatable :: parents(:,:)
     real(dp), allocatable :: u_next(:), eta2(:)
     real(dp) :: t0, floor
@@ -457,16 +477,8 @@ contains
         res%nheld = res%nheld + 1
       end if
     end do
-    call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked, st)
-    if (.not. is_ok(st)) return
-    if (res%nmarked == 0) then
-      call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ': no triangle to ' // &
-        'mark (every indicator is zero, or ' // itoa(res%nheld) // ' triangle(s) with positive ones are at the ' // &
-        'area floor of double precision)')
-      return
-    end if
     call mesh_ensure_adjacency(an%mesh, st)
-    if (is_ok(st)) call mesh_refine_marked(an%mesh, marked, finer, parents, st)
+    if (is_ok(st)) call mark_and_refine(an, eta2, finer, parents, res, st)
     if (.not. is_ok(st)) return
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
@@ -486,6 +498,72 @@ contains
     call finish_level(an, res, t0)
   end subroutine analysis_next_step
 
+  !> Doerfler's marks on eta2 and their newest-vertex bisection (an%mesh -> finer, parents
+  !> of dualsig_mesh_adapt).  When the step aims at tol (analysis_aim_growth: the growth g
+  !> of the unknowns the observed rate asks for), at most (g - 1) ndof new nodes: the marks
+  !> are cut to the largest indicators, in proportion to the new nodes obtained, and the
+  !> bisection redone (it costs under 1 % of a step).  res%nmarked, res%aim_growth.
+  subroutine mark_and_refine(an, eta2, finer, parents, res, st)
+    type(analysis_t), intent(in) :: an
+    real(dp), intent(in) :: eta2(:)
+    type(mesh_t), intent(out) :: finer
+    integer, allocatable, intent(out) :: parents(:,:)
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st
+    logical, allocatable :: marked(:)
+    integer :: try, cap, nnew, max_new
+    res%aim_growth = analysis_aim_growth(an)
+    max_new = huge(1)
+    if (res%aim_growth > 0.0_dp) max_new = max(1, int((res%aim_growth - 1.0_dp) * real(an%last_ndof, dp)))
+    cap = huge(1)
+    do try = 1, adapt_aim_tries
+      call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked, st, max_marked=cap)
+      if (.not. is_ok(st)) return
+      if (res%nmarked == 0) then
+        call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ': no triangle to ' // &
+          'mark (every indicator is zero, or ' // itoa(res%nheld) // ' triangle(s) with positive ones are at the ' // &
+          'area floor of double precision)')
+        return
+      end if
+      call mesh_refine_marked(an%mesh, marked, finer, parents, st)
+      if (.not. is_ok(st)) return
+      nnew = finer%nnode - an%mesh%nnode
+      if (nnew <= max_new .or. res%nmarked == 1) exit
+      cap = max(1, int(adapt_aim_shrink * real(res%nmarked, dp) * real(max_new, dp) / real(nnew, dp)))
+    end do
+  end subroutine mark_and_refine
+
+  !> The growth ndof_next / ndof of the unknowns with which the next adaptive step aims at
+  !> the settings' tol (adapt_aim_growth of the last two steps); 0: no aim (no tol, fewer
+  !> than two steps, no certified decay, or tol too far for one step).
+  pure real(dp) function analysis_aim_growth(an) result(growth)
+    type(analysis_t), intent(in) :: an
+    growth = 0.0_dp
+    if (.not. an%settings%adapt%enabled .or. an%level < 2) return
+    growth = adapt_aim_growth(an%last_ndof, an%prev_ndof, an%last_rel, an%prev_rel, an%settings%adapt%tol)
+  end function analysis_aim_growth
+
+  !> The growth of the unknowns that reaches tol from a step with ndof unknowns and the
+  !> certified relative error rel, after one with ndof_prev and rel_prev: with the observed
+  !> rate p = log(rel_prev / rel) / log(ndof / ndof_prev), at most adapt_aim_rate_max,
+  !> adapt_aim_margin (rel / tol)^(1/p).  0 when it does not apply: no tol, tol reached, no
+  !> decay, p below adapt_aim_rate_min, or a growth beyond adapt_aim_growth_max (a step
+  !> that Doerfler's set does not overshoot).
+  pure real(dp) function adapt_aim_growth(ndof, ndof_prev, rel, rel_prev, tol) result(growth)
+    integer, intent(in) :: ndof, ndof_prev
+    real(dp), intent(in) :: rel, rel_prev, tol
+    real(dp) :: p, log_growth
+    growth = 0.0_dp
+    if (.not. (tol > 0.0_dp) .or. ndof_prev <= 0 .or. ndof <= ndof_prev) return
+    if (.not. (rel > tol .and. rel < rel_prev .and. rel_prev < huge(1.0_dp))) return
+    p = log(rel_prev / rel) / log(real(ndof, dp) / real(ndof_prev, dp))
+    if (p < adapt_aim_rate_min) return
+    p = min(p, adapt_aim_rate_max)
+    log_growth = log(adapt_aim_margin) + log(rel / tol) / p
+    if (log_growth > log(adapt_aim_growth_max)) return
+    growth = exp(log_growth)
+  end function adapt_aim_growth
+
   !> Bookkeeping after a level or step that started at wall time t0: its timings, its
   !> indicators for the next marking, its size for the stopping test.
   subroutine finish_level(an, res, t0)
@@ -499,6 +577,8 @@ contains
     an%last_step_seconds = res%step_seconds
     an%prev_ndof = an%last_ndof
     an%last_ndof = res%ndof
+    an%prev_rel = an%last_rel
+    an%last_rel = certified_rel_error(res)
     if (allocated(an%est_elem)) deallocate (an%est_elem)
     if (allocated(res%est_elem)) an%est_elem = res%est_elem
   end subroutine finish_level

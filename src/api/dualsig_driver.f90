@@ -31,7 +31,8 @@ module dualsig_driver
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
                               analysis_start, analysis_next_level, exact_degree, analysis_next_step, &
                               analysis_adapt_stop, adapt_stop_text, certified_rel_error, ADAPT_GOING, &
-                              adapt_max_steps, mg_auto_min_unknowns, analysis_free
+                              adapt_max_steps, mg_auto_min_unknowns, analysis_free, analysis_aim_growth, &
+                              adapt_aim_margin, adapt_aim_rate_max
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo
   use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
@@ -426,6 +427,8 @@ contains
       growth = 2.0_dp
       if (an%prev_ndof > 0 .and. an%last_ndof > an%prev_ndof) &
         growth = min(2.0_dp, adapt_growth_margin * real(an%last_ndof, dp) / real(an%prev_ndof, dp))
+      ! a step aiming at tol keeps its new nodes within the aim (analysis_aim_growth)
+      if (analysis_aim_growth(an) > 0.0_dp) growth = min(growth, analysis_aim_growth(an))
       ntri = int(growth * real(an%mesh%ntri, dp), int64)
     else
       ntri = 4_int64 * an%mesh%ntri                   ! one uniform refinement
@@ -1005,7 +1008,9 @@ contains
         head = [character(len=500) :: head, line]
         line = 'adaptive: smallest angle over all steps ' // rtoa(run%min_angle) // ' deg; refine_s = marking, ' // &
           'bisection and transfer of u_h; estimate_s = dual solve and bounds; elapsed_s = since the start; ' // &
-          'nheld = triangles left unmarked at the area floor of double precision'
+          'nheld = triangles left unmarked at the area floor of double precision; a step that ' // &
+          'Doerfler''s set would carry past tol is cut to ' // rtoa(adapt_aim_margin) // ' (rel/tol)^(1/p) ndof, ' // &
+          'p the last rate (at most ' // rtoa(adapt_aim_rate_max) // ')'
         head = [character(len=500) :: head, line]
         if (allocated(run%stop_text)) then
           line = 'adaptive loop STOPPED at ' // run%stop_text

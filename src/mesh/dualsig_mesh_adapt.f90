@@ -253,19 +253,24 @@ contains
   !> Doerfler marking: the smallest set M of triangles with sum_M eta2 >= theta sum eta2
   !> (eta2: the squared indicators, negative values counted as 0), the largest
   !> indicators first (a heap sort: n log n).  theta <= 0 marks nothing, theta >= 1 every
-  !> triangle with a positive indicator.  Out of memory: DS_ERR_MEMORY in st (without st
-  !> the program stops, see dualsig_alloc).
-  subroutine mesh_mark_doerfler(eta2, theta, marked, nmarked, st)
+  !> triangle with a positive indicator.  max_marked (optional): at most this many, the
+  !> largest indicators (a prefix of the same order, i.e. Doerfler's set of a smaller
+  !> theta).  Out of memory: DS_ERR_MEMORY in st (without st the program stops, see
+  !> dualsig_alloc).
+  subroutine mesh_mark_doerfler(eta2, theta, marked, nmarked, st, max_marked)
     real(dp), intent(in) :: eta2(:)
     real(dp), intent(in) :: theta
     logical, allocatable, intent(out) :: marked(:)
     integer, intent(out), optional :: nmarked
     type(status_t), intent(out) :: st
+    integer, intent(in), optional :: max_marked
     integer, allocatable :: idx(:)
     real(dp), allocatable :: w(:)
     real(dp) :: total, target, acc
-    integer :: n, k, ist
+    integer :: n, k, ist, kmax
     n = size(eta2)
+    kmax = n
+    if (present(max_marked)) kmax = min(n, max(max_marked, 0))
     if (present(nmarked)) nmarked = 0
     allocate (marked(n), w(n), idx(n), stat=ist)
     if (alloc_failed(ist, st, 'the marks of the refinement', 3 * n, BYTES_REAL)) return
@@ -277,7 +282,7 @@ contains
     target = min(theta, 1.0_dp) * total
     call sort_descending(w, idx)
     acc = 0.0_dp
-    do k = 1, n
+    do k = 1, kmax
       if (w(idx(k)) <= 0.0_dp) exit
       marked(idx(k)) = .true.
       acc = acc + w(idx(k))
