@@ -27,7 +27,8 @@ module dualsig_analysis
                           mesh_ensure_adjacency
   use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
-  use dualsig_mesh_adapt, only: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler
+  use dualsig_mesh_adapt, only: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler, &
+                                mesh_bisection_origin
   use dualsig_sparse_direct, only: ORDERING_GEOMETRIC
   use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
@@ -50,9 +51,9 @@ module dualsig_analysis
   use dualsig_estimate_dual_hdiv, only: dual_hdiv_bounds_load, dual_hdiv_errors
   use dualsig_estimate_errors, only: p1_error_norms
   use dualsig_estimate_dual_p1, only: dual_p1_bounds_t, dual_p1_bounds_load, dual_p1_errors
-  use dualsig_load_data, only: load_data_t, load_data_build
+  use dualsig_load_data, only: load_data_t, load_data_build, load_data_move
   use dualsig_estimate_dual_p2, only: dual_p2_bounds_t, dual_p2_bounds, dual_p2_bounds_load, dual_p2_error
-  use dualsig_alloc, only: alloc_failed, BYTES_LOGICAL, BYTES_REAL
+  use dualsig_alloc, only: alloc_failed, BYTES_LOGICAL, BYTES_REAL, BYTES_INT
   implicit none
   private
 
@@ -63,6 +64,7 @@ module dualsig_analysis
   public :: analysis_progress
   public :: adapt_settings_t, analysis_next_step, analysis_adapt_stop, adapt_stop_text, certified_rel_error
   public :: analysis_aim_growth, adapt_aim_growth, adapt_aim_margin, adapt_aim_rate_max
+  public :: adapt_min_growth_default, adapt_min_growth_max
   public :: ADAPT_GOING, ADAPT_STOP_TOL, ADAPT_STOP_NDOF, ADAPT_STOP_SECONDS, ADAPT_STOP_STEPS, adapt_max_steps
 
   !> Degree of the quadrature of the load vectors (>= 5 as required; Radon's rule).
@@ -108,8 +110,22 @@ module dualsig_analysis
   real(dp), parameter :: adapt_aim_rate_min = 0.1_dp
   real(dp), parameter :: adapt_aim_shrink = 0.98_dp
   integer, parameter :: adapt_aim_tries = 5
+  !> After adapt_aim_tries proportional corrections a step still above its aim halves its
+  !> marks until it is within (at most this many times): the memory check counted the aim.
+  integer, parameter :: adapt_aim_halvings = 30
   !> Growths beyond this are not aims (a bisection step at most doubles the triangles).
   real(dp), parameter :: adapt_aim_growth_max = 2.0_dp
+  !> Default of adapt_settings_t%min_growth: every step adds at least this fraction of the
+  !> unknowns less one (the largest indicators beyond Doerfler's set).  A loop whose steps
+  !> grow the unknowns by g costs about g / (g - 1) times its last step: 3.9 at Doerfler's
+  !> 1.34 (theta = 0.5 on the L-shapes), 3 at 1.5.  The optimal-rate theory of Doerfler
+  !> marking asks for a set within a constant factor of the minimal one: so it is while
+  !> Doerfler's set itself grows the unknowns by a fixed fraction (1.33-1.52 on the three
+  !> work-precision cases, whose rates stay 0.50; doc/performance.md).
+  real(dp), parameter :: adapt_min_growth_default = 1.5_dp
+  !> Largest min_growth: marking every triangle once adds about one node per two triangles,
+  !> i.e. about doubles the unknowns.
+  real(dp), parameter :: adapt_min_growth_max = 2.0_dp
 
   !> The adaptive loop solve -> estimate -> mark (Doerfler) -> refine (newest-vertex
   !> bisection): analysis_next_step, analysis_adapt_stop.
@@ -120,6 +136,9 @@ module dualsig_analysis
     integer :: max_ndof = 0             !! stop at a step with at least this many unknowns; 0 = no limit
     real(dp) :: max_seconds = 0.0_dp    !! stop before a step predicted to end later; 0 = no limit
     integer :: max_steps = adapt_max_steps !! at most this many steps (<= adapt_max_steps)
+    !> each step at least this growth of the unknowns (1 <= min_growth <= adapt_min_growth_max;
+    !> 1: Doerfler's set alone), unless it aims at tol (analysis_aim_growth)
+    real(dp) :: min_growth = adapt_min_growth_default
   end type adapt_settings_t
 
   !> The progress callback of the pipeline (analysis_settings_t%progress), for a front end
@@ -284,8 +303,13 @@ module dualsig_analysis
     integer :: last_ndof = 0, prev_ndof = 0 !! unknowns of the last two levels / steps
     !> their certified relative errors (certified_rel_error; huge: not certified)
     real(dp) :: last_rel = huge(1.0_dp), prev_rel = huge(1.0_dp)
+    real(dp) :: new_per_mark = 0.0_dp       !! new nodes per marked triangle of the last bisection (0: none yet)
     type(tri_rule_t) :: load_rule, exact_rule, bound_rule_p1, bound_rule_p2
     type(mg_hierarchy_t) :: mg              !! method 'multigrid': the grids of the uniform refinements so far
+    !> adaptive steps: the last step's load data, and per triangle of the refined mesh the
+    !> triangle of that step it is (mesh_bisection_origin; 0: new), for level_load_data
+    type(load_data_t) :: load_keep
+    integer, allocatable :: tri_origin(:)
   end type analysis_t
 
 contains
@@ -310,6 +334,11 @@ contains
     if (settings%adapt%enabled) then
       if (.not. (settings%adapt%theta > 0.0_dp .and. settings%adapt%theta <= 1.0_dp)) then
         call set_error(st, DS_ERR_INPUT, 'analysis: adapt theta out of range (expected 0 < theta <= 1)')
+        return
+      end if
+      if (.not. (settings%adapt%min_growth >= 1.0_dp .and. settings%adapt%min_growth <= adapt_min_growth_max)) then
+        call set_error(st, DS_ERR_INPUT, 'analysis: adapt min_growth out of range (expected 1 <= min_growth <= ' // &
+          rtoa(adapt_min_growth_max) // ')')
         return
       end if
       if (.not. settings%dual .or. .not. settings%bounds) then
@@ -480,6 +509,12 @@ contains
     call mesh_ensure_adjacency(an%mesh, st)
     if (is_ok(st)) call mark_and_refine(an, eta2, finer, parents, res, st)
     if (.not. is_ok(st)) return
+    if (allocated(an%tri_origin)) deallocate (an%tri_origin)
+    if (allocated(an%load_keep%mean)) then      ! the whole triangles keep their load data
+      allocate (an%tri_origin(finer%ntri), stat=ist)
+      if (alloc_failed(ist, st, 'the origins of the refined triangles', finer%ntri, BYTES_INT)) return
+      call mesh_bisection_origin(an%mesh, finer, an%tri_origin)
+    end if
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
     if (allocated(an%psi)) call prolongate_psi_bisection(an, finer, parents, st)
@@ -499,25 +534,45 @@ contains
   end subroutine analysis_next_step
 
   !> Doerfler's marks on eta2 and their newest-vertex bisection (an%mesh -> finer, parents
-  !> of dualsig_mesh_adapt).  When the step aims at tol (analysis_aim_growth: the growth g
-  !> of the unknowns the observed rate asks for), at most (g - 1) ndof new nodes: the marks
-  !> are cut to the largest indicators, in proportion to the new nodes obtained, and the
-  !> bisection redone (it costs under 1 % of a step).  res%nmarked, res%aim_growth.
+  !> of dualsig_mesh_adapt), with the new nodes kept in a window of the unknowns ndof:
+  !> - a step that aims at tol (analysis_aim_growth: the growth g the observed rate asks
+  !>   for, adapt_aim_margin included) adds at least (g / adapt_aim_margin - 1) ndof and
+  !>   at most (g - 1) ndof new nodes;
+  !> - any other step at least (min_growth - 1) ndof.
+  !> The marks are Doerfler's set cut to, or extended by, the largest indicators; their
+  !> number starts from the last bisection's new nodes per mark and is corrected in
+  !> proportion to the new nodes obtained, the bisection redone (adapt_aim_tries times;
+  !> a bisection costs about 3 % of a step); a step still above its aim then halves its
+  !> marks until it is within (the upper bound always holds, down to one mark).
+  !> res%nmarked, res%aim_growth.
   subroutine mark_and_refine(an, eta2, finer, parents, res, st)
-    type(analysis_t), intent(in) :: an
+    type(analysis_t), intent(inout) :: an
     real(dp), intent(in) :: eta2(:)
     type(mesh_t), intent(out) :: finer
     integer, allocatable, intent(out) :: parents(:,:)
     type(level_result_t), intent(inout) :: res
     type(status_t), intent(out) :: st
     logical, allocatable :: marked(:)
-    integer :: try, cap, nnew, max_new
+    integer :: try, cap, least, nnew, max_new, min_new, nmarkable
+    real(dp) :: ndof
+    ndof = real(max(an%last_ndof, 1), dp)
     res%aim_growth = analysis_aim_growth(an)
     max_new = huge(1)
-    if (res%aim_growth > 0.0_dp) max_new = max(1, int((res%aim_growth - 1.0_dp) * real(an%last_ndof, dp)))
+    min_new = ceiling((an%settings%adapt%min_growth - 1.0_dp) * ndof)
+    if (res%aim_growth > 0.0_dp) then
+      max_new = max(1, int((res%aim_growth - 1.0_dp) * ndof))
+      min_new = min(max_new, ceiling((res%aim_growth / adapt_aim_margin - 1.0_dp) * ndof))
+    end if
+    nmarkable = count(eta2 > 0.0_dp)
     cap = huge(1)
-    do try = 1, adapt_aim_tries
-      call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked, st, max_marked=cap)
+    least = 0
+    if (an%new_per_mark > 0.0_dp) then        ! the last bisection's yield: one try as a rule
+      if (max_new < huge(1)) cap = max(1, int(adapt_aim_shrink * real(max_new, dp) / an%new_per_mark))
+      least = min(cap, ceiling(real(min_new, dp) / (adapt_aim_shrink * an%new_per_mark)))
+    end if
+    do try = 1, adapt_aim_tries + adapt_aim_halvings
+      call mesh_mark_doerfler(eta2, an%settings%adapt%theta, marked, res%nmarked, st, max_marked=cap, &
+                              min_marked=least)
       if (.not. is_ok(st)) return
       if (res%nmarked == 0) then
         call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ': no triangle to ' // &
@@ -528,8 +583,19 @@ contains
       call mesh_refine_marked(an%mesh, marked, finer, parents, st)
       if (.not. is_ok(st)) return
       nnew = finer%nnode - an%mesh%nnode
-      if (nnew <= max_new .or. res%nmarked == 1) exit
-      cap = max(1, int(adapt_aim_shrink * real(res%nmarked, dp) * real(max_new, dp) / real(nnew, dp)))
+      an%new_per_mark = real(nnew, dp) / real(res%nmarked, dp)
+      if (nnew > max_new .and. res%nmarked > 1) then
+        cap = max(1, int(adapt_aim_shrink * real(res%nmarked, dp) * real(max_new, dp) / real(nnew, dp)))
+        if (try >= adapt_aim_tries) cap = max(1, res%nmarked / 2)
+        least = min(least, cap)
+      else if (try >= adapt_aim_tries) then
+        exit                                       ! within the aim, short of min_new: kept
+      else if (nnew < min_new .and. res%nmarked < nmarkable) then
+        least = ceiling(real(res%nmarked, dp) * real(min_new, dp) / (adapt_aim_shrink * real(nnew, dp)))
+        if (cap < huge(1)) cap = max(cap, least)
+      else
+        exit
+      end if
     end do
   end subroutine mark_and_refine
 
@@ -1039,6 +1105,7 @@ contains
     res%energy_hi = bounds%energy_hi
     call move_alloc(bounds%est_elem, res%est_elem)
     res%certified = res%load_unresolved == 0
+    if (an%settings%adapt%enabled) call load_data_move(load, an%load_keep)   ! for the next step
   end subroutine dual_level_p1
 
   !> The bounds of P1 from the load data and, with an exact solution, the dual errors: for
@@ -1086,15 +1153,24 @@ contains
   !> oscillation of f, integrated until converged); triangles where they did not converge
   !> are counted in res (the bounds are then not certified) and reported as a warning.
   subroutine level_load_data(an, load, res, st)
-    type(analysis_t), intent(in) :: an
+    type(analysis_t), intent(inout) :: an
     type(load_data_t), intent(out) :: load
     type(level_result_t), intent(inout) :: res
     type(status_t), intent(inout) :: st
+    real(dp), allocatable :: breaks(:)
     if (allocated(an%problem%x_breaks)) then
-      call load_data_build(an%mesh, an%problem%f, load, st, an%problem%x_breaks)
+      breaks = an%problem%x_breaks
     else
-      call load_data_build(an%mesh, an%problem%f, load, st)
+      allocate (breaks(0))                      ! small: empty
     end if
+    if (allocated(an%tri_origin) .and. allocated(an%load_keep%mean)) then
+      ! an adaptive step: the triangles left whole keep the last step's data
+      call load_data_build(an%mesh, an%problem%f, load, st, breaks, prev=an%load_keep, origin=an%tri_origin)
+    else
+      call load_data_build(an%mesh, an%problem%f, load, st, breaks)
+    end if
+    an%load_keep = load_data_t()
+    if (allocated(an%tri_origin)) deallocate (an%tri_origin)
     if (.not. is_ok(st)) return
     res%load_unresolved = load%nunconverged
     if (load%nunconverged > 0) call add_warning(res, DS_WARN_NOT_CERTIFIED, &
@@ -1231,5 +1307,6 @@ contains
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
     call move_alloc(bounds%est_elem, res%est_elem)
+    if (an%settings%adapt%enabled .and. allocated(load%mean)) call load_data_move(load, an%load_keep)
   end subroutine dual_level_p2
 end module dualsig_analysis

@@ -43,7 +43,7 @@ module dualsig_driver
                             vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, &
                             mesh_edges_path
   use dualsig_strings, only: itoa, rtoa
-  use dualsig_clock, only: resident_memory_mb
+  use dualsig_clock, only: resident_memory_mb, peak_memory_mb
   use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
                               text_abandon, memory_available_gb
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
@@ -51,7 +51,7 @@ module dualsig_driver
   private
 
   public :: run_namelist_file, run_one, primal_columns, dual_columns, adapt_columns
-  public :: progress_default_seconds
+  public :: progress_default_seconds, measured_level_memory_gb, memory_measured_margin
 
   !> The exact solutions of the catalogue live on the unit square; bounding-box tolerance.
   real(dp), parameter :: domain_tol = 1.0e-12_dp
@@ -69,6 +69,14 @@ module dualsig_driver
   real(dp), parameter :: p1_dual_bytes_per_tri = 3000.0_dp
   real(dp), parameter :: primal_factor_bytes_per_tri = 700.0_dp
   real(dp), parameter :: primal_bytes_per_tri = 250.0_dp
+  !> After a level of at least memory_measured_min_tri triangles, the next level's memory is
+  !> estimated from this run's own peak resident size per triangle of that level, times
+  !> memory_measured_margin (measured_level_memory_gb), instead of the figures above: those
+  !> hold for every problem with a fifth or more of margin.  With them a step of the smooth
+  !> adaptive run to 1e-3 was refused as needing 24.7 GB (1.41e7 triangles at 1750 bytes)
+  !> where the run had measured 1306 bytes a triangle (about 18.4 GB).
+  integer(int64), parameter :: memory_measured_min_tri = 100000_int64
+  real(dp), parameter :: memory_measured_margin = 1.2_dp
 
   !> Columns of the error table ('#' marks integer columns).
   character(len=16), parameter :: primal_columns(10) = [character(len=16) :: &
@@ -416,24 +424,32 @@ contains
     type(status_t), intent(out) :: st
     real(dp), parameter :: adapt_growth_margin = 1.1_dp
     real(dp), parameter :: mib_bytes = 1048576.0_dp
-    real(dp) :: need, limit, growth
+    real(dp) :: need, limit, growth, per_tri
     integer(int64) :: ntri
-    character(len=:), allocatable :: what
+    character(len=:), allocatable :: what, basis
     if (level == 1) then
       ntri = run%problem%mesh%ntri
     else if (run%adaptive) then
-      ! a bisection step: at most twice the triangles; after two steps the last step's
-      ! growth (Doerfler marks a part: 1.32-1.34 on the adaptive L-shapes) with a tenth more
+      ! a bisection step: at most twice the triangles; after two steps the larger of the
+      ! last step's growth and min_growth (mark_and_refine's floor), with a tenth more
       growth = 2.0_dp
       if (an%prev_ndof > 0 .and. an%last_ndof > an%prev_ndof) &
-        growth = min(2.0_dp, adapt_growth_margin * real(an%last_ndof, dp) / real(an%prev_ndof, dp))
+        growth = min(2.0_dp, adapt_growth_margin * max(run%cfg%adapt_min_growth, &
+                                                       real(an%last_ndof, dp) / real(an%prev_ndof, dp)))
       ! a step aiming at tol keeps its new nodes within the aim (analysis_aim_growth)
-      if (analysis_aim_growth(an) > 0.0_dp) growth = min(growth, analysis_aim_growth(an))
+      if (analysis_aim_growth(an) > 0.0_dp) growth = analysis_aim_growth(an)
       ntri = int(growth * real(an%mesh%ntri, dp), int64)
     else
       ntri = 4_int64 * an%mesh%ntri                   ! one uniform refinement
     end if
     need = level_memory_gb(run%problem%kind, run%cfg%dual_enabled, run%cfg%method, ntri, stream_dual(run, an))
+    basis = ''
+    if (level > 1 .and. an%mesh%ntri >= memory_measured_min_tri .and. peak_memory_mb() > 0.0_dp) then
+      per_tri = peak_memory_mb() * mib_bytes / real(an%mesh%ntri, dp)
+      need = measured_level_memory_gb(per_tri, int(an%mesh%ntri, int64), ntri, stream_dual(run, an))
+      basis = ' (this run''s peak so far, ' // itoa(nint(per_tri)) // ' bytes a triangle, times ' // &
+              rtoa(memory_measured_margin) // ')'
+    end if
     limit = run%cfg%max_memory_gb
     what = '&run max_memory_gb = ' // rtoa(limit)
     if (limit <= 0.0_dp) then
@@ -446,7 +462,7 @@ contains
              rtoa(limit) // ' GB'
     end if
     if (need > limit) call set_error(st, DS_ERR_INPUT, 'level ' // itoa(level) // ': ' // int8_text(ntri) // &
-      ' triangles need an estimated ' // rtoa(need) // ' GB, more than ' // what // &
+      ' triangles need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
       ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
   end subroutine check_level_memory
 
@@ -495,6 +511,20 @@ contains
     gb = (base_bytes + per_tri * real(ntri, dp) * &
           max(1.0_dp, log(real(ntri, dp)) / log(calibration_ntri))) / 1.0e9_dp
   end function level_memory_gb
+
+  !> Estimated peak memory (GB) of a level of ntri triangles from a run's measured peak
+  !> resident size per triangle of its last level (ntri_prev triangles), times
+  !> memory_measured_margin; with the n log n growth of a factor's fill (as
+  !> level_memory_gb) unless the level is O(N) (linear: the stream function's multigrid).
+  pure real(dp) function measured_level_memory_gb(per_tri, ntri_prev, ntri, linear) result(gb)
+    real(dp), intent(in) :: per_tri
+    integer(int64), intent(in) :: ntri_prev, ntri
+    logical, intent(in) :: linear
+    real(dp) :: fill
+    fill = 1.0_dp
+    if (.not. linear .and. ntri_prev > 1) fill = max(1.0_dp, log(real(ntri, dp)) / log(real(ntri_prev, dp)))
+    gb = memory_measured_margin * per_tri * real(ntri, dp) * fill / 1.0e9_dp
+  end function measured_level_memory_gb
 
   !> An integer(int64) as text.
   pure function int8_text(i) result(text)
@@ -735,6 +765,7 @@ contains
     settings%adapt%tol = cfg%adapt_tol
     settings%adapt%max_ndof = cfg%adapt_max_ndof
     settings%adapt%max_seconds = cfg%adapt_max_seconds
+    settings%adapt%min_growth = cfg%adapt_min_growth
   end subroutine settings_from_config
 
   !> The most table rows of a run: its levels, or for an adaptive run the most steps.
@@ -1008,9 +1039,12 @@ contains
         head = [character(len=500) :: head, line]
         line = 'adaptive: smallest angle over all steps ' // rtoa(run%min_angle) // ' deg; refine_s = marking, ' // &
           'bisection and transfer of u_h; estimate_s = dual solve and bounds; elapsed_s = since the start; ' // &
-          'nheld = triangles left unmarked at the area floor of double precision; a step that ' // &
-          'Doerfler''s set would carry past tol is cut to ' // rtoa(adapt_aim_margin) // ' (rel/tol)^(1/p) ndof, ' // &
-          'p the last rate (at most ' // rtoa(adapt_aim_rate_max) // ')'
+          'nheld = triangles left unmarked at the area floor of double precision'
+        head = [character(len=500) :: head, line]
+        line = 'adaptive: the marks are Doerfler''s set extended by the largest indicators until a step grows ' // &
+          'the unknowns by at least min_growth = ' // rtoa(cfg%adapt_min_growth) // '; a step that can reach tol ' // &
+          'aims at it: between 1 and ' // rtoa(adapt_aim_margin) // ' times (rel/tol)^(1/p) ndof, p the last rate ' // &
+          '(at most ' // rtoa(adapt_aim_rate_max) // ')'
         head = [character(len=500) :: head, line]
         if (allocated(run%stop_text)) then
           line = 'adaptive loop STOPPED at ' // run%stop_text

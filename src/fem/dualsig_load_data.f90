@@ -36,10 +36,15 @@ module dualsig_load_data
   implicit none
   private
 
-  public :: load_data_t, load_data_build, load_rel_tol, load_max_depth
+  public :: load_data_t, load_data_build, load_data_move, load_rel_tol, load_max_depth, load_keep_slack
 
   !> Two successive cubatures must agree to this, relative to the size of the integrand.
   real(dp), parameter :: load_rel_tol = 1.0e-12_dp
+  !> A triangle's data is kept from the previous mesh of an adaptive run (load_data_build's
+  !> prev) when this mesh's scales of f are at least (1 - load_keep_slack) times the ones it
+  !> was integrated for: its thresholds are then at most this fraction looser than the new
+  !> ones (the scales change by the error of one rule per triangle from mesh to mesh).
+  real(dp), parameter :: load_keep_slack = 1.0e-3_dp
   !> Subdivision levels of a triangle at most (4^depth pieces where f is not resolved).
   integer, parameter :: load_max_depth = 10
   !> From this subdivision depth on, a piece whose disagreement (per unit area) did not at
@@ -75,6 +80,9 @@ module dualsig_load_data
     logical, allocatable :: converged(:)    !! (ntri) both passes met load_rel_tol
     integer :: nunconverged = 0             !! triangles not converged
     integer :: evaluations = 0              !! evaluations of f in all
+    !> the scales of f over the domain the thresholds used (int |f| / |Omega|, int f^2 / |Omega|)
+    real(dp) :: scales(2) = -1.0_dp
+    integer :: nkept = 0                    !! triangles whose data was kept from prev (load_data_build)
   end type load_data_t
 
   !> Sums of one pass over a piece: int f, int f (x - x_T), int f (y - y_T), int f^2,
@@ -84,19 +92,24 @@ module dualsig_load_data
 contains
 
   !> The load data of f on mesh.  breaks (optional): abscissae of lines x = c where f may
-  !> jump or have a kink; the cubature splits the triangles there.  An error when f is not
-  !> finite at an evaluation point (naming the triangle and the point).
-  subroutine load_data_build(mesh, f, data, st, breaks)
+  !> jump or have a kink; the cubature splits the triangles there.  prev and origin
+  !> (optional, together): the data of the previous mesh of an adaptive run and, per
+  !> triangle, the triangle of that mesh it is (mesh_bisection_origin; 0: a new one): those
+  !> are copied instead of integrated again, when the scales allow (load_keep_slack).  An
+  !> error when f is not finite at an evaluation point (naming the triangle and the point).
+  subroutine load_data_build(mesh, f, data, st, breaks, prev, origin)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(load_data_t), intent(out) :: data
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)
+    type(load_data_t), intent(in), optional :: prev
+    integer, intent(in), optional :: origin(:)
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp_work, tp_top(0:4)
     real(dp), allocatable :: br(:), br_local(:), v_work(:), v_top(:,:)
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
-    logical :: ok1, ok2
+    logical :: ok1, ok2, keep
     integer :: t, k, budget
     integer(i8) :: mesh_budget
     data%ntri = mesh%ntri
@@ -109,8 +122,15 @@ contains
     allocate (v_work(4 * rule%n), v_top(4 * rule%n, 0:4), stat=k)
     if (alloc_failed(k, st, 'the cubature values', 24_i8 * rule%n, BYTES_REAL)) return
     call global_scales(abs_density, sq_density)
+    data%scales = [abs_density, sq_density]
+    keep = .false.
+    if (present(prev) .and. present(origin)) keep = may_keep(data, prev, origin)
     mesh_budget = load_mesh_pieces_fixed + load_mesh_pieces_per_tri * mesh%ntri
     do t = 1, mesh%ntri
+      if (keep) then                              ! a triangle of prev's mesh: its data kept
+        if (origin(t) > 0) call keep_triangle(prev, origin(t), data, t)
+        if (origin(t) > 0) cycle
+      end if
       xy = mesh%xy(:, mesh%tri(:, t))
       centroid = sum(xy, dim=2) / 3.0_dp
       area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
@@ -277,6 +297,48 @@ contains
     end subroutine grow_top
 
   end subroutine load_data_build
+
+  !> Whether load_data_build may keep prev's data where origin points (data%scales set):
+  !> origin fits both meshes and the scales are at least (1 - load_keep_slack) prev's.
+  pure logical function may_keep(data, prev, origin)
+    type(load_data_t), intent(in) :: data, prev
+    integer, intent(in) :: origin(:)
+    may_keep = .false.
+    if (size(origin) /= data%ntri .or. prev%ntri <= 0 .or. .not. allocated(prev%mean)) return
+    may_keep = all(data%scales >= (1.0_dp - load_keep_slack) * prev%scales) .and. all(origin <= prev%ntri)
+  end function may_keep
+
+  !> Triangle t of data takes the data of triangle c of prev.
+  pure subroutine keep_triangle(prev, c, data, t)
+    type(load_data_t), intent(in) :: prev
+    integer, intent(in) :: c, t
+    type(load_data_t), intent(inout) :: data
+    data%mean(t) = prev%mean(c)
+    data%moment(:, t) = prev%moment(:, c)
+    data%slope(:, t) = prev%slope(:, c)
+    data%osc(t) = prev%osc(c)
+    data%diameter(t) = prev%diameter(c)
+    data%converged(t) = prev%converged(c)
+    data%nkept = data%nkept + 1
+  end subroutine keep_triangle
+
+  !> Move the load data from into to (from is left empty).
+  subroutine load_data_move(from, to)
+    type(load_data_t), intent(inout) :: from, to
+    to%ntri = from%ntri
+    call move_alloc(from%mean, to%mean)
+    call move_alloc(from%moment, to%moment)
+    call move_alloc(from%slope, to%slope)
+    call move_alloc(from%osc, to%osc)
+    call move_alloc(from%diameter, to%diameter)
+    call move_alloc(from%converged, to%converged)
+    to%nunconverged = from%nunconverged
+    to%evaluations = from%evaluations
+    to%scales = from%scales
+    to%nkept = from%nkept
+    from = load_data_t()
+  end subroutine load_data_move
+
 
   !> The sums of a pass (load_data_build's adapt) from the values v of f at the points tp:
   !> the first pass, or with second int (f - fbar - slope . (x - x_T))^2 and int f^2.

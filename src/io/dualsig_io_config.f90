@@ -56,7 +56,7 @@ module dualsig_io_config
   character(len=*), parameter :: dual_items = &
     'enabled method rho tol tol_h2 max_iter ordering inner particular space'
   character(len=*), parameter :: adapt_items = &
-    'enabled theta tol max_ndof max_seconds'
+    'enabled theta tol max_ndof max_seconds min_growth'
   character(len=*), parameter :: problem_items = &
     'kind f u_exact breaks f_regions f_region_values f_file'
 
@@ -116,6 +116,7 @@ module dualsig_io_config
     real(dp) :: adapt_tol = 0.0_dp                 !! target of sqrt(est)/sqrt(energy_lo); 0 = none
     integer :: adapt_max_ndof = 0                  !! 0 = no limit
     real(dp) :: adapt_max_seconds = 0.0_dp         !! 0 = no limit
+    real(dp) :: adapt_min_growth = 1.5_dp          !! growth of the unknowns a step at least adds, 1 to 2
     ! &problem (one's own problem instead of a scene)
     logical :: scene_given = .false.               !! &run scene was given explicitly
     logical :: has_problem = .false.               !! a &problem group was given
@@ -340,7 +341,7 @@ contains
     if (cfg%adapt_enabled) then
       fixed(n + 1) = '&adapt enabled = .true., theta = ' // rtoa(cfg%adapt_theta) // ', tol = ' // &
         rtoa(cfg%adapt_tol) // ', max_ndof = ' // itoa(cfg%adapt_max_ndof) // ', max_seconds = ' // &
-        rtoa(cfg%adapt_max_seconds) // ' /'
+        rtoa(cfg%adapt_max_seconds) // ', min_growth = ' // rtoa(cfg%adapt_min_growth) // ' /'
       n = n + 1
     end if
     prob = ''
@@ -1006,9 +1007,9 @@ contains
     character(len=*), intent(out) :: msg
     character(len=len(assign) + 16) :: rec(size(assign) + 2)
     logical :: enabled
-    real(dp) :: theta, tol, max_seconds
+    real(dp) :: theta, tol, max_seconds, min_growth
     integer :: max_ndof, k
-    namelist /adapt/ enabled, theta, tol, max_ndof, max_seconds
+    namelist /adapt/ enabled, theta, tol, max_ndof, max_seconds, min_growth
     logical :: saved_halting(size(ieee_usual))
     rec(1) = '&adapt'
     do k = 1, size(assign)
@@ -1021,11 +1022,12 @@ contains
     tol = cfg%adapt_tol
     max_ndof = cfg%adapt_max_ndof
     max_seconds = cfg%adapt_max_seconds
+    min_growth = cfg%adapt_min_growth
     call fp_traps_off(saved_halting)
     read (rec, nml=adapt, iostat=ios, iomsg=msg)
     call ieee_set_halting_mode(ieee_usual, saved_halting)
     if (ios /= 0) return
-    if (.not. all(ieee_is_finite([theta, tol, max_seconds]))) then
+    if (.not. all(ieee_is_finite([theta, tol, max_seconds, min_growth]))) then
       call bad_value('a finite real number', ios, msg)
       return
     end if
@@ -1034,6 +1036,7 @@ contains
     cfg%adapt_tol = tol
     cfg%adapt_max_ndof = max_ndof
     cfg%adapt_max_seconds = max_seconds
+    cfg%adapt_min_growth = min_growth
   end subroutine read_adapt_group
 
   !> Range checks of the &adapt group (after validate's), each naming the variable.
@@ -1053,6 +1056,9 @@ contains
     else if (.not. cfg%adapt_max_seconds >= 0.0_dp) then
       call set_error(st, DS_ERR_INPUT, where // '&adapt max_seconds = ' // rtoa(cfg%adapt_max_seconds) // &
         '; expected >= 0 (0: no limit)')
+    else if (.not. (cfg%adapt_min_growth >= 1.0_dp .and. cfg%adapt_min_growth <= 2.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt min_growth = ' // rtoa(cfg%adapt_min_growth) // &
+        '; expected 1 <= min_growth <= 2 (the growth of the unknowns each step at least adds; 1: Doerfler''s set alone)')
     else if (cfg%adapt_enabled .and. .not. cfg%dual_enabled) then
       call set_error(st, DS_ERR_INPUT, where // '&adapt enabled = .true. needs &dual enabled = .true. ' // &
         '(the element indicators of the bound est drive the marking)')
@@ -1330,7 +1336,8 @@ contains
       s = 'a list of at most 16 quoted region names or tags'
     case ('f_region_values')
       s = 'a list of at most 16 quoted expressions'
-    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb', 'theta', 'max_seconds')
+    case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb', 'theta', 'max_seconds', &
+          'min_growth')
       s = 'a real number'
     case ('omega_auto', 'nested', 'enabled', 'vtk', 'latex')
       s = 'a logical, .true. or .false.'

@@ -36,6 +36,7 @@ module dualsig_mesh_adapt
   private
 
   public :: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler, mesh_label_longest_edge
+  public :: mesh_bisection_origin
 
 contains
 
@@ -236,6 +237,35 @@ contains
     end do
   end subroutine split_boundary
 
+  !> The triangles of the refined mesh fine (mesh_refine_marked of coarse) that are coarse
+  !> triangles left whole: origin(t) = that coarse triangle, 0 for a child.  A child has a
+  !> new node among its vertices; the whole ones keep the coarse order (bisect_triangles),
+  !> so one pass over both lists matches them, each match checked on its vertex set (a
+  !> triangle that does not match is given 0: nothing is ever matched wrongly).
+  pure subroutine mesh_bisection_origin(coarse, fine, origin)
+    type(mesh_t), intent(in) :: coarse, fine
+    integer, intent(out) :: origin(:)            !! (fine%ntri)
+    integer :: t, c, c_next
+    origin = 0
+    c_next = 1
+    do t = 1, fine%ntri
+      if (any(fine%tri(:, t) > coarse%nnode)) cycle
+      do c = c_next, coarse%ntri
+        if (same_vertices(coarse%tri(:, c), fine%tri(:, t))) then
+          origin(t) = c
+          c_next = c + 1
+          exit
+        end if
+      end do
+      if (origin(t) == 0) exit                   ! the order is not the coarse one: no more matches
+    end do
+  contains
+    pure logical function same_vertices(a, b)
+      integer, intent(in) :: a(3), b(3)
+      same_vertices = all([any(b == a(1)), any(b == a(2)), any(b == a(3))])
+    end function same_vertices
+  end subroutine mesh_bisection_origin
+
   !> P1 transfer to the mesh of mesh_refine_marked: coarse values copied, a midpoint gets
   !> the mean of its edge's end values (exact: the coarse function is linear on the edge).
   pure subroutine mesh_prolongate_bisection(parents, uc, uf)
@@ -255,22 +285,26 @@ contains
   !> indicators first (a heap sort: n log n).  theta <= 0 marks nothing, theta >= 1 every
   !> triangle with a positive indicator.  max_marked (optional): at most this many, the
   !> largest indicators (a prefix of the same order, i.e. Doerfler's set of a smaller
-  !> theta).  Out of memory: DS_ERR_MEMORY in st (without st the program stops, see
-  !> dualsig_alloc).
-  subroutine mesh_mark_doerfler(eta2, theta, marked, nmarked, st, max_marked)
+  !> theta).  min_marked (optional, within max_marked): at least this many, the set
+  !> extended by the next largest positive indicators (Doerfler's set of a larger theta).
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine mesh_mark_doerfler(eta2, theta, marked, nmarked, st, max_marked, min_marked)
     real(dp), intent(in) :: eta2(:)
     real(dp), intent(in) :: theta
     logical, allocatable, intent(out) :: marked(:)
     integer, intent(out), optional :: nmarked
     type(status_t), intent(out) :: st
     integer, intent(in), optional :: max_marked
+    integer, intent(in), optional :: min_marked
     integer, allocatable :: idx(:)
     real(dp), allocatable :: w(:)
     real(dp) :: total, target, acc
-    integer :: n, k, ist, kmax
+    integer :: n, k, ist, kmax, kmin
     n = size(eta2)
     kmax = n
     if (present(max_marked)) kmax = min(n, max(max_marked, 0))
+    kmin = 0
+    if (present(min_marked)) kmin = min(kmax, max(min_marked, 0))
     if (present(nmarked)) nmarked = 0
     allocate (marked(n), w(n), idx(n), stat=ist)
     if (alloc_failed(ist, st, 'the marks of the refinement', 3 * n, BYTES_REAL)) return
@@ -286,7 +320,7 @@ contains
       if (w(idx(k)) <= 0.0_dp) exit
       marked(idx(k)) = .true.
       acc = acc + w(idx(k))
-      if (acc >= target * (1.0_dp - 1.0e-14_dp)) exit
+      if (k >= kmin .and. acc >= target * (1.0_dp - 1.0e-14_dp)) exit
     end do
     if (present(nmarked)) nmarked = count(marked)
   end subroutine mesh_mark_doerfler
