@@ -20,10 +20,12 @@
 !> are cached in the workspace, so that B's columns follow as y_d - Z u_d(D) and A_RR^{-1}
 !> of them by the capacitance correction: an iteration costs ONE solve with the kept factor
 !> plus one block solve (2 right-hand sides per unknown) for the unknowns not seen before
-!> since the last factorisation, instead of a refactorisation.  The choice is made by
-!> measured cost: bordering is used while its predicted time (from the single-solve time
-!> measured with this factor) is below the time of a numeric refactorisation (timed too;
-!> the symbolic analysis is reused), and never for k > max_lowrank.
+!> since the last factorisation, instead of a refactorisation.  The choice is made by a
+!> cost model of the kept factor, never by the clock, so that a run's results do not depend
+!> on the load of the machine (the two routes agree only to rounding): bordering is used
+!> while its predicted cost, in single solves, is below that of a numeric refactorisation
+!> (refactor_solves, from CHOLMOD's flop count and the factor's nonzeros; the symbolic
+!> analysis is reused), and never for k > max_lowrank.
 !>
 !> Termination and safeguards: the method stops when the predicted set repeats (the KKT
 !> conditions then hold to the accuracy of the solve).  A set seen before (a cycle) or the
@@ -32,7 +34,6 @@
 !> returned x is always projected on the bounds, hence feasible.
 module dualsig_solver_active_set
   use dualsig_kinds, only: dp, i8
-  use dualsig_clock, only: wall_seconds
   use dualsig_sparse, only: csr_t, csr_matvec
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
                                    cholesky_free, ORDERING_AMD
@@ -45,14 +46,14 @@ module dualsig_solver_active_set
   private
 
   public :: active_set_settings_t, active_set_result_t, active_set_solve, active_set_workspace_t, &
-            active_set_workspace_free
+            active_set_workspace_free, refactor_solves
 
   type :: active_set_settings_t
     integer :: max_iter = 100            !! maximum number of active-set changes
     integer :: ordering = ORDERING_AMD   !! fill-reducing ordering (dualsig_sparse_direct)
     integer, allocatable :: perm(:)      !! the elimination order when ordering = ORDERING_GIVEN
     integer :: max_lowrank = 24          !! largest change handled by bordering (0: always refactorise)
-    logical :: lowrank_by_cost = .true.  !! choose bordering by measured cost (.false.: whenever k <= max_lowrank)
+    logical :: lowrank_by_cost = .true.  !! choose bordering by the cost model (.false.: whenever k <= max_lowrank)
     real(dp) :: fallback_tol = 1.0e-10_dp    !! KKT tolerance of the projected-SOR fallback
     integer :: fallback_max_iter = 1000000   !! sweeps of the fallback
     !> largest normwise backward error ||M x - b||_inf / (||M||_inf ||x||_inf + ||b||_inf) of a
@@ -82,8 +83,6 @@ module dualsig_solver_active_set
     type(cholesky_t) :: chol
     type(csr_t) :: ar                          !! the reduced matrix of `fixed`
     logical, allocatable :: fixed(:)
-    real(dp) :: t_solve = -1.0_dp              !! measured seconds of one solve with the kept factor (< 0: not yet)
-    real(dp) :: t_refactor = -1.0_dp           !! measured (or estimated) seconds of a numeric refactorisation
     ! bordering cache (valid for the kept factor): z_d and y_d of the unknowns idx(1:ncache)
     integer :: ncache = 0
     integer, allocatable :: cache_idx(:)
@@ -97,19 +96,23 @@ module dualsig_solver_active_set
 
   !> Sets remembered for cycle detection.
   integer, parameter :: history_len = 64
-  !> Changes bordered before any solve or factorisation has been timed.
-  integer, parameter :: untimed_lowrank = 4
   !> Cost of one more right-hand side in a block solve, relative to a single solve
   !> (measured with CHOLMOD + OpenBLAS at 1e6 unknowns: 16 right-hand sides cost 6.8
   !> single solves).
   real(dp), parameter :: multi_rhs_cost = 0.4_dp
-  !> Share of a first factorisation (analysis + numeric) taken as the numeric part.
-  real(dp), parameter :: refactor_share = 0.7_dp
+  !> The cost model of refactor_solves: a numeric refactorisation costs
+  !> max(refactor_solves_min, fl / (4 nnz(L)) / refactor_speedup) single solves, fl being
+  !> CHOLMOD's flop count of the factorisation and 4 nnz(L) the flops of a solve; the
+  !> factorisation runs refactor_speedup times more flops a second (dense blocks) than the
+  !> memory-bound solve, and below refactor_solves_min solves its fixed costs dominate.
+  !> Measured (CHOLMOD supernodal + OpenBLAS, one thread, cold p2_contact meshes of 129^2 to
+  !> 1025^2 nodes): refactorisation / solve time 30, 16.5 and 18 at fl / (4 nnz(L)) = 17,
+  !> 49 and 85.
+  real(dp), parameter :: refactor_speedup = 4.7_dp
+  real(dp), parameter :: refactor_solves_min = 16.0_dp
 
   !> State of one active_set_solve call carried from step to step.
   type :: active_set_run_t
-    real(dp) :: t_solve = -1.0_dp        !! measured seconds of one solve with the kept factor (< 0: not yet)
-    real(dp) :: t_refactor = -1.0_dp     !! measured (or estimated) seconds of a numeric refactorisation
     integer :: nhist = 0                 !! sets remembered in hist
     integer(i8) :: hist(3, history_len)  !! hashes of the sets tried (ring, for cycle detection)
   end type active_set_run_t
@@ -121,8 +124,6 @@ contains
     type(active_set_workspace_t), intent(inout) :: ws
     call cholesky_free(ws%chol)
     ws%have_factor = .false.
-    ws%t_solve = -1.0_dp
-    ws%t_refactor = -1.0_dp
     ws%ncache = 0
     ws%base_valid = .false.
     if (allocated(ws%cache_z)) deallocate (ws%cache_z, ws%cache_y, ws%cache_idx, ws%cache_has_y)
@@ -172,12 +173,9 @@ contains
     w%base_valid = .false.               ! f may differ from the last call's
     run%nhist = 0
     cycled = .false.
-    ! costs measured in earlier calls with the same kept factor (unknown until measured)
-    run%t_solve = merge(w%t_solve, -1.0_dp, w%have_factor)
-    run%t_refactor = merge(w%t_refactor, -1.0_dp, w%have_factor)
     do it = 1, settings%max_iter
       call reduced_rhs(a, f, bnd, fixed, xb, rhs)
-      call solve_held_set(a, bnd, fixed, rhs, settings, w, run, x, res, st)
+      call solve_held_set(a, bnd, fixed, rhs, settings, w, x, res, st)
       if (st%code /= 0) exit
       res%iterations = it
       call predict_fixed(a, f, kind, bnd, x, g, fixed_new)
@@ -195,8 +193,6 @@ contains
     end do
     res%nnz_factor = w%chol%nnz_factor
     res%ordering = w%chol%ordering
-    w%t_solve = run%t_solve
-    w%t_refactor = run%t_refactor
     if (.not. present(ws)) call active_set_workspace_free(local)
     if (st%code /= 0) return
     where (kind == BOUND_LOWER) x = max(x, bnd)
@@ -231,33 +227,29 @@ contains
 
   !> One active-set step: x = M(fixed)^{-1} rhs, by a solve with the kept factor when its
   !> held set is `fixed`, by bordering the kept factor when that is predicted cheaper (and
-  !> accurate enough), else by a (re)factorisation of M(fixed).  Updates the measured costs
-  !> in `run` and the counters in `res`.
-  subroutine solve_held_set(a, bnd, fixed, rhs, settings, w, run, x, res, st)
+  !> accurate enough; bordering_pays), else by a (re)factorisation of M(fixed).  Updates the
+  !> counters in `res`.
+  subroutine solve_held_set(a, bnd, fixed, rhs, settings, w, x, res, st)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: bnd(:)
     logical, intent(in) :: fixed(:)
     real(dp), intent(in) :: rhs(:)
     type(active_set_settings_t), intent(in) :: settings
     type(active_set_workspace_t), intent(inout) :: w
-    type(active_set_run_t), intent(inout) :: run
     real(dp), intent(inout) :: x(:)
     type(active_set_result_t), intent(inout) :: res
     type(status_t), intent(inout) :: st
     integer :: k
-    logical :: had_factor, border
-    real(dp) :: t0
+    logical :: border
 
     k = -1
     border = .false.
     if (w%have_factor) then
       k = count(w%fixed .neqv. fixed)
-      if (k > 0) border = bordering_pays(settings, run, k, uncached_count(w, fixed))
+      if (k > 0) border = bordering_pays(settings, w%chol, k, uncached_count(w, fixed))
     end if
     if (k == 0) then
-      t0 = wall_seconds()
       call cholesky_solve(w%chol, rhs, x, st)
-      run%t_solve = wall_seconds() - t0
       call keep_base(rhs, x, w, st)
     else if (border) then
       call bordered_solve(a, w, settings%max_lowrank, fixed, rhs, bnd, x, st)
@@ -272,19 +264,9 @@ contains
       end if
     end if
     if (k /= 0 .and. .not. border .and. st%code == 0) then
-      had_factor = w%have_factor
-      t0 = wall_seconds()
       call factor_reduced(a, fixed, settings, w, res, st)
       if (st%code /= 0) return
-      ! a numeric refactorisation is timed; a first factorisation (with its analysis) estimates it
-      if (had_factor) then
-        run%t_refactor = wall_seconds() - t0
-      else if (run%t_refactor < 0.0_dp) then
-        run%t_refactor = refactor_share * (wall_seconds() - t0)
-      end if
-      t0 = wall_seconds()
       call cholesky_solve(w%chol, rhs, x, st)
-      run%t_solve = wall_seconds() - t0
       call keep_base(rhs, x, w, st)
     end if
   end subroutine solve_held_set
@@ -300,26 +282,34 @@ contains
     w%base_valid = .true.
   end subroutine keep_base
 
-  !> Bordering with k changed unknowns, `fresh` of them not cached (at most one solve plus a
-  !> block solve with 2 right-hand sides per fresh unknown), is predicted cheaper than a
-  !> numeric refactorisation and its solve; before anything was timed, only small k are
-  !> bordered.
-  logical function bordering_pays(settings, run, k, fresh)
+  !> Bordering with k changed unknowns, `fresh` of them not cached (one solve plus, when
+  !> fresh > 0, one more solve and a block solve with 2 right-hand sides per fresh unknown)
+  !> is predicted cheaper than a numeric refactorisation of chol's pattern and its solve
+  !> (refactor_solves): a choice from the factor's statistics, the same on every run.
+  pure logical function bordering_pays(settings, chol, k, fresh)
     type(active_set_settings_t), intent(in) :: settings
-    type(active_set_run_t), intent(in) :: run
+    type(cholesky_t), intent(in) :: chol
     integer, intent(in) :: k, fresh
+    real(dp) :: bordered
     if (k > settings%max_lowrank) then
       bordering_pays = .false.
     else if (.not. settings%lowrank_by_cost) then
       bordering_pays = .true.
-    else if (run%t_solve < 0.0_dp .or. run%t_refactor < 0.0_dp) then
-      bordering_pays = k <= untimed_lowrank
     else
       ! a solve with m right-hand sides costs about (1 + multi_rhs_cost m) single solves
-      bordering_pays = (1.0_dp + merge(1.0_dp + 2.0_dp * multi_rhs_cost * fresh, 0.0_dp, fresh > 0)) * run%t_solve &
-                       < run%t_refactor + run%t_solve
+      bordered = 1.0_dp + merge(1.0_dp + 2.0_dp * multi_rhs_cost * fresh, 0.0_dp, fresh > 0)
+      bordering_pays = bordered < refactor_solves(chol) + 1.0_dp
     end if
   end function bordering_pays
+
+  !> The cost of a numeric refactorisation of chol's pattern in single solves with chol:
+  !> max(refactor_solves_min, fl / (4 nnz(L)) / refactor_speedup).
+  pure real(dp) function refactor_solves(chol)
+    type(cholesky_t), intent(in) :: chol
+    refactor_solves = refactor_solves_min
+    if (chol%nnz_factor > 0) refactor_solves = max(refactor_solves_min, &
+      chol%flops / (4.0_dp * real(chol%nnz_factor, dp)) / refactor_speedup)
+  end function refactor_solves
 
   !> The unknowns held at their bound by the next step: fixed ones, and bounded ones with
   !> g_i - A_ii (x_i - bnd_i) > 0 for the current x (g = A x - F is left in g).
