@@ -63,6 +63,8 @@ module dualsig_io_vtk
   integer, parameter :: CONTACT_DIRICHLET = 2   !! node on the closure of Gamma_u (u = 0)
 
   integer, parameter :: vtk_triangle = 5        !! VTK cell type VTK_TRIANGLE
+  !> Characters of a node's line in the gnuplot mesh file: x and y as es24.15e3.
+  integer, parameter :: node_line_len = 48
 
   character(len=*), parameter :: VTU_BINARY = 'binary'   !! zlib-compressed base64 arrays (default)
   character(len=*), parameter :: VTU_ASCII = 'ascii'     !! arrays as text
@@ -361,27 +363,50 @@ contains
   end function mesh_edges_path
 
   !> The edges of `mesh` as gnuplot segments (x y / x y / blank line) to temp_name(path);
-  !> the caller commits.  `plot 'file' with lines` draws the mesh.
+  !> the caller commits.  `plot 'file' with lines` draws the mesh.  Each node's line is
+  !> formatted once (a node ends about 6 edges) when its text fits in memory.
   subroutine mesh_edges_write(path, mesh, st)
     character(len=*), intent(in) :: path
     type(mesh_t), intent(in) :: mesh
     type(status_t), intent(out) :: st
     type(text_file_t) :: tf
-    character(len=80) :: buf
-    integer :: e, k
+    character(len=node_line_len), allocatable :: line(:)
+    integer, allocatable :: nlen(:)
+    integer :: e, k, i, ist
     call text_open(tf, path, st)
     if (st%code /= 0) return
     call text_put(tf, '# dualsig mesh: ' // itoa(mesh%nnode) // ' nodes, ' // itoa(mesh%ntri) // &
       ' triangles, ' // itoa(mesh%nedge) // ' edges as segments')
-    do e = 1, mesh%nedge
-      do k = 1, 2
-        write (buf, '(2es24.15e3)') mesh%xy(:, mesh%edge_nodes(k, e))
-        call text_put(tf, trim(buf))
+    allocate (line(mesh%nnode), nlen(mesh%nnode), stat=ist)
+    if (ist == 0) then
+      do i = 1, mesh%nnode
+        line(i) = node_line(mesh%xy(:, i))
+        nlen(i) = len_trim(line(i))
       end do
-      call text_put(tf, '')
-    end do
+      do e = 1, mesh%nedge
+        do k = 1, 2
+          i = mesh%edge_nodes(k, e)
+          call text_put(tf, line(i)(1:nlen(i)))
+        end do
+        call text_put(tf, '')
+      end do
+    else                                          ! no room for the lines: format as we go
+      do e = 1, mesh%nedge
+        do k = 1, 2
+          call text_put(tf, trim(node_line(mesh%xy(:, mesh%edge_nodes(k, e)))))
+        end do
+        call text_put(tf, '')
+      end do
+    end if
     call text_close(tf, st)
   end subroutine mesh_edges_write
+
+  !> One node's line of mesh_edges_write: x and y to 16 significant digits.
+  function node_line(xy) result(buf)
+    real(dp), intent(in) :: xy(2)
+    character(len=node_line_len) :: buf
+    write (buf, '(2es24.15e3)') xy
+  end function node_line
 
   ! ------------------------------------------------------------------ private
   !> The opening tag of a DataArray of VTK type `vtype`; `extra` holds further attributes.
