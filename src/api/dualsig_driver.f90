@@ -51,7 +51,7 @@ module dualsig_driver
   private
 
   public :: run_namelist_file, run_one, primal_columns, dual_columns, adapt_columns
-  public :: progress_default_seconds, measured_level_memory_gb, memory_measured_margin
+  public :: progress_default_seconds, measured_level_memory_gb, memory_measured_margin, memory_limit_gb
 
   !> The exact solutions of the catalogue live on the unit square; bounding-box tolerance.
   real(dp), parameter :: domain_tol = 1.0e-12_dp
@@ -450,14 +450,12 @@ contains
       basis = ' (this run''s peak so far, ' // itoa(nint(per_tri)) // ' bytes a triangle, times ' // &
               rtoa(memory_measured_margin) // ')'
     end if
-    limit = run%cfg%max_memory_gb
-    what = '&run max_memory_gb = ' // rtoa(limit)
-    if (limit <= 0.0_dp) then
-      ! the level's estimate is the whole process's peak: what the process holds already
-      ! (its live data, and the heap it keeps for reuse, dualsig_heap) counts as available
-      limit = memory_available_gb()
+    what = '&run max_memory_gb = ' // rtoa(run%cfg%max_memory_gb)
+    if (run%cfg%max_memory_gb > 0.0_dp) then
+      limit = memory_limit_gb(run%cfg%max_memory_gb, -1.0_dp, 0.0_dp)
+    else
+      limit = memory_limit_gb(run%cfg%max_memory_gb, memory_available_gb(), resident_memory_mb())
       if (limit <= 0.0_dp) return                     ! unknown: no limit
-      limit = limit + resident_memory_mb() * mib_bytes / 1.0e9_dp
       what = 'the available memory (MemAvailable of /proc/meminfo and this process''s resident memory) ' // &
              rtoa(limit) // ' GB'
     end if
@@ -465,6 +463,21 @@ contains
       ' triangles need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
       ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
   end subroutine check_level_memory
+
+  !> The memory (GB) a level may use: max_memory_gb when it is set (> 0), else the machine's
+  !> available memory (available_gb, MemAvailable; <= 0: unknown, then the result is <= 0,
+  !> no limit) plus what this process holds already (resident_mb MiB: its live data and the
+  !> heap it keeps for reuse, dualsig_heap), since a level's estimate is the whole process's
+  !> peak.
+  pure real(dp) function memory_limit_gb(max_memory_gb, available_gb, resident_mb) result(limit)
+    real(dp), intent(in) :: max_memory_gb, available_gb, resident_mb
+    real(dp), parameter :: mib_bytes = 1048576.0_dp
+    limit = max_memory_gb
+    if (limit > 0.0_dp) return
+    limit = available_gb
+    if (limit <= 0.0_dp) return
+    limit = limit + max(resident_mb, 0.0_dp) * mib_bytes / 1.0e9_dp
+  end function memory_limit_gb
 
   !> The level's P2 dual will be the stream function by multigrid (dualsig_analysis's
   !> p2_dual_choice, for the sizes where memory matters): method 'default' or 'multigrid',
