@@ -53,6 +53,8 @@ module dualsig_driver
   public :: run_namelist_file, run_one, primal_columns, dual_columns, adapt_columns
   public :: progress_default_seconds, measured_level_memory_gb, memory_measured_margin, memory_limit_gb
 
+  !> Bytes of a MiB (peak_memory_mb and resident_memory_mb count in MiB).
+  real(dp), parameter :: mib_bytes = 1048576.0_dp
   !> The exact solutions of the catalogue live on the unit square; bounding-box tolerance.
   real(dp), parameter :: domain_tol = 1.0e-12_dp
   !> ParaView output: a Signorini node is shown in contact when u_h - obstacle <= this
@@ -423,7 +425,6 @@ contains
     integer, intent(in) :: level
     type(status_t), intent(out) :: st
     real(dp), parameter :: adapt_growth_margin = 1.1_dp
-    real(dp), parameter :: mib_bytes = 1048576.0_dp
     real(dp) :: need, limit, growth, per_tri
     integer(int64) :: ntri
     character(len=:), allocatable :: what, basis
@@ -450,11 +451,10 @@ contains
       basis = ' (this run''s peak so far, ' // itoa(nint(per_tri)) // ' bytes a triangle, times ' // &
               rtoa(memory_measured_margin) // ')'
     end if
-    what = '&run max_memory_gb = ' // rtoa(run%cfg%max_memory_gb)
-    if (run%cfg%max_memory_gb > 0.0_dp) then
-      limit = memory_limit_gb(run%cfg%max_memory_gb, -1.0_dp, 0.0_dp)
-    else
-      limit = memory_limit_gb(run%cfg%max_memory_gb, memory_available_gb(), resident_memory_mb())
+    limit = run%cfg%max_memory_gb
+    what = '&run max_memory_gb = ' // rtoa(limit)
+    if (limit <= 0.0_dp) then
+      limit = memory_limit_gb(limit, memory_available_gb(), resident_memory_mb())
       if (limit <= 0.0_dp) return                     ! unknown: no limit
       what = 'the available memory (MemAvailable of /proc/meminfo and this process''s resident memory) ' // &
              rtoa(limit) // ' GB'
@@ -471,7 +471,6 @@ contains
   !> peak.
   pure real(dp) function memory_limit_gb(max_memory_gb, available_gb, resident_mb) result(limit)
     real(dp), intent(in) :: max_memory_gb, available_gb, resident_mb
-    real(dp), parameter :: mib_bytes = 1048576.0_dp
     limit = max_memory_gb
     if (limit > 0.0_dp) return
     limit = available_gb

@@ -378,26 +378,23 @@ contains
     call text_put(tf, '# dualsig mesh: ' // itoa(mesh%nnode) // ' nodes, ' // itoa(mesh%ntri) // &
       ' triangles, ' // itoa(mesh%nedge) // ' edges as segments')
     allocate (line(mesh%nnode), nlen(mesh%nnode), stat=ist)
-    if (ist == 0) then
+    if (ist == 0) then                            ! else no room for the lines: format as we go
       do i = 1, mesh%nnode
         line(i) = node_line(mesh%xy(:, i))
         nlen(i) = len_trim(line(i))
       end do
-      do e = 1, mesh%nedge
-        do k = 1, 2
-          i = mesh%edge_nodes(k, e)
-          call text_put(tf, line(i)(1:nlen(i)))
-        end do
-        call text_put(tf, '')
-      end do
-    else                                          ! no room for the lines: format as we go
-      do e = 1, mesh%nedge
-        do k = 1, 2
-          call text_put(tf, trim(node_line(mesh%xy(:, mesh%edge_nodes(k, e)))))
-        end do
-        call text_put(tf, '')
-      end do
     end if
+    do e = 1, mesh%nedge
+      do k = 1, 2
+        i = mesh%edge_nodes(k, e)
+        if (ist == 0) then
+          call text_put(tf, line(i)(1:nlen(i)))
+        else
+          call text_put(tf, trim(node_line(mesh%xy(:, i))))
+        end if
+      end do
+      call text_put(tf, '')
+    end do
     call text_close(tf, st)
   end subroutine mesh_edges_write
 
