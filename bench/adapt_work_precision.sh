@@ -11,6 +11,8 @@
 # Usage: bench/adapt_work_precision.sh [LMAX]   (default 9; bin/dualsig must be built)
 #        MIN_GROWTH=g bench/adapt_work_precision.sh   (&adapt min_growth of both adaptive
 #        runs; unset: the default)
+#        ALGEBRAIC_SHARE=s bench/adapt_work_precision.sh   (&adapt algebraic_share of both
+#        adaptive runs, e.g. 0 for exact solves on every step; unset: the default)
 set -euo pipefail
 LMAX=${1:-9}
 mkdir -p out/wp
@@ -35,8 +37,8 @@ namelist() {  # name scene gu ga mesh levels [adapt tol ndof]
 /
 NML
   if [ $# -gt 6 ]; then
-    printf '&adapt\n  enabled = .true., tol = %s, max_ndof = %s, max_seconds = 300%s\n/\n' "$7" "$8" \
-      "${MIN_GROWTH:+, min_growth = $MIN_GROWTH}"
+    printf '&adapt\n  enabled = .true., tol = %s, max_ndof = %s, max_seconds = 300%s%s\n/\n' "$7" "$8" \
+      "${MIN_GROWTH:+, min_growth = $MIN_GROWTH}" "${ALGEBRAIC_SHARE:+, algebraic_share = $ALGEBRAIC_SHARE}"
   fi
 }
 for c in "${cases[@]}"; do

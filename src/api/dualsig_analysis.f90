@@ -126,6 +126,12 @@ module dualsig_analysis
   !> Largest min_growth: marking every triangle once adds about one node per two triangles,
   !> i.e. about doubles the unknowns.
   real(dp), parameter :: adapt_min_growth_max = 2.0_dp
+  !> Default of adapt_settings_t%algebraic_share.  est(u~, lambda) bounds the error of any
+  !> admissible pair, so a step's primal and dual solves need only be accurate enough not to
+  !> raise est by more than this share of it: sqrt(est) by at most half of it (0.05 %).  The
+  !> multigrid solvers then stop after a few V-cycles instead of at their residual
+  !> tolerances (doc/performance.md); the bound stays guaranteed whatever the share.
+  real(dp), parameter :: adapt_algebraic_share_default = 1.0e-3_dp
 
   !> The adaptive loop solve -> estimate -> mark (Doerfler) -> refine (newest-vertex
   !> bisection): analysis_next_step, analysis_adapt_stop.
@@ -139,6 +145,9 @@ module dualsig_analysis
     !> each step at least this growth of the unknowns (1 <= min_growth <= adapt_min_growth_max;
     !> 1: Doerfler's set alone), unless it aims at tol (analysis_aim_growth)
     real(dp) :: min_growth = adapt_min_growth_default
+    !> the share of est the algebraic errors of a step's solves may add (0 <= share < 1; 0:
+    !> every solve to its solver's tolerance), predicted from the previous step (algebraic_est_tol)
+    real(dp) :: algebraic_share = adapt_algebraic_share_default
   end type adapt_settings_t
 
   !> The progress callback of the pipeline (analysis_settings_t%progress), for a front end
@@ -235,6 +244,9 @@ module dualsig_analysis
     real(dp) :: primal_seconds = 0.0_dp     !! wall time of the solve
     real(dp) :: kkt_residual = 0.0_dp
     logical :: primal_limit = .false.       !! the primal solver stopped at its iteration limit
+    !> adaptive steps (algebraic_share): the part of est the primal solve left, as predicted
+    !> when it stopped on it (0: solved to its tolerance)
+    real(dp) :: primal_est_gap = 0.0_dp
     real(dp), allocatable :: u(:)           !! u_h at the nodes
     integer, allocatable :: bound_kind(:)   !! BOUND_* per node (dualsig_qp_types)
     real(dp), allocatable :: bound(:)       !! bound value per node
@@ -303,6 +315,7 @@ module dualsig_analysis
     integer :: last_ndof = 0, prev_ndof = 0 !! unknowns of the last two levels / steps
     !> their certified relative errors (certified_rel_error; huge: not certified)
     real(dp) :: last_rel = huge(1.0_dp), prev_rel = huge(1.0_dp)
+    real(dp) :: last_est = 0.0_dp           !! est of the last level / step (0: none)
     real(dp) :: new_per_mark = 0.0_dp       !! new nodes per marked triangle of the last bisection (0: none yet)
     type(tri_rule_t) :: load_rule, exact_rule, bound_rule_p1, bound_rule_p2
     type(mg_hierarchy_t) :: mg              !! method 'multigrid': the grids of the uniform refinements so far
@@ -334,6 +347,10 @@ contains
     if (settings%adapt%enabled) then
       if (.not. (settings%adapt%theta > 0.0_dp .and. settings%adapt%theta <= 1.0_dp)) then
         call set_error(st, DS_ERR_INPUT, 'analysis: adapt theta out of range (expected 0 < theta <= 1)')
+        return
+      end if
+      if (.not. (settings%adapt%algebraic_share >= 0.0_dp .and. settings%adapt%algebraic_share < 1.0_dp)) then
+        call set_error(st, DS_ERR_INPUT, 'analysis: adapt algebraic_share out of range (expected 0 <= share < 1)')
         return
       end if
       if (.not. (settings%adapt%min_growth >= 1.0_dp .and. settings%adapt%min_growth <= adapt_min_growth_max)) then
@@ -645,6 +662,7 @@ contains
     an%last_ndof = res%ndof
     an%prev_rel = an%last_rel
     an%last_rel = certified_rel_error(res)
+    an%last_est = merge(res%est, 0.0_dp, res%has_dual)
     if (allocated(an%est_elem)) deallocate (an%est_elem)
     if (allocated(res%est_elem)) an%est_elem = res%est_elem
   end subroutine finish_level
@@ -991,6 +1009,8 @@ contains
     type(mg_hierarchy_t) :: amg
     mset%tol = an%settings%tol
     mset%max_iter = min(an%settings%max_iter, mset%max_iter)
+    ! half the algebraic share of est to the primal; est - est* = 2 (J - J*) (est_excess)
+    mset%energy_tol = 0.5_dp * algebraic_est_tol(an, res%ndof) / 2.0_dp
     if (res%primal_method == 'multigrid_amg') then
       call mg_build_algebraic(amg, sys%a, st_solve, an%mesh%xy)
       if (is_ok(st_solve)) call multigrid_solve(amg, sys%a, sys%load, sys%kind, sys%bnd, an%u, mset, mres, st_solve)
@@ -1001,7 +1021,22 @@ contains
     res%primal_iters = mres%iterations
     res%primal_factorisations = mres%galerkin_updates
     res%kkt_residual = mres%kkt_residual
+    res%primal_est_gap = merge(2.0_dp * mres%energy_gap, 0.0_dp, mres%energy_stop)
   end subroutine solve_primal_multigrid
+
+  !> An adaptive step's tolerance on the part of est its solves may leave (est's units): the
+  !> share settings%adapt%algebraic_share of est predicted for ndof unknowns from the last
+  !> step at the optimal rate, est ~ 1 / ndof (a slower rate makes the true est larger, so
+  !> the share smaller).  0 (solve to the solvers' tolerances) on level 1, outside the
+  !> adaptive loop and when the last step has no est.
+  pure real(dp) function algebraic_est_tol(an, ndof) result(tol)
+    type(analysis_t), intent(in) :: an
+    integer, intent(in) :: ndof
+    tol = 0.0_dp
+    if (.not. an%settings%adapt%enabled .or. an%level < 2) return
+    if (.not. (an%last_est > 0.0_dp) .or. an%last_ndof <= 0 .or. ndof <= 0) return
+    tol = an%settings%adapt%algebraic_share * an%last_est * real(an%last_ndof, dp) / real(ndof, dp)
+  end function algebraic_est_tol
 
   !> An error of a solver becomes the level's error; a warning is recorded in res.
   subroutine take_status(st_step, res, st)
@@ -1248,6 +1283,7 @@ contains
     dset%inner = an%settings%dual_inner
     dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
     dset%particular = an%settings%dual_particular
+    dset%est_tol = 0.5_dp * algebraic_est_tol(an, res%ndof)     ! the other half of the share
     res%dual_method = dset%method
     if (dset%particular == 'polynomial') then
       call level_load_data(an, load, res, st)

@@ -778,6 +778,7 @@ contains
     settings%adapt%max_ndof = cfg%adapt_max_ndof
     settings%adapt%max_seconds = cfg%adapt_max_seconds
     settings%adapt%min_growth = cfg%adapt_min_growth
+    settings%adapt%algebraic_share = cfg%adapt_algebraic_share
   end subroutine settings_from_config
 
   !> The most table rows of a run: its levels, or for an adaptive run the most steps.
@@ -838,6 +839,8 @@ contains
       res%primal_iters, ' ' // trim(primal_steps(res%primal_method)) // ', ', res%primal_factorisations, ' ' // &
       trim(merge('Galerkin updates', 'factorisations  ', index(res%primal_method, 'multigrid') == 1)) // ', ', &
       res%ndof, ' unknowns'
+    if (res%primal_est_gap > 0.0_dp) write (unit, '(a,es9.2,a)') '    stopped at the algebraic share: est + ', &
+      res%primal_est_gap, ' (predicted part of est the solve left)'
     if (.not. res%has_dual) return
     if (run%problem%kind == PROBLEM_P1) then
       associate (d => res%dual_p1)
@@ -862,6 +865,8 @@ contains
         if (res%dual_method == 'multigrid') write (unit, '(a,i0,a,i0,a)') '    stream function: ', &
           d%inner_iterations, ' V-cycles in ', d%iterations, ' active-set steps (' // trim(d%inner) // &
           trim(stream_grids(d%inner)) // ')'
+        if (d%est_gap > 0.0_dp) write (unit, '(a,es9.2,a)') '    stopped at the algebraic share: est + ', &
+          d%est_gap, ' (predicted part of est the solve left)'
       end associate
     end if
   end subroutine report_level

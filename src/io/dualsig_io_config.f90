@@ -56,7 +56,7 @@ module dualsig_io_config
   character(len=*), parameter :: dual_items = &
     'enabled method rho tol tol_h2 max_iter ordering inner particular space'
   character(len=*), parameter :: adapt_items = &
-    'enabled theta tol max_ndof max_seconds min_growth'
+    'enabled theta tol max_ndof max_seconds min_growth algebraic_share'
   character(len=*), parameter :: problem_items = &
     'kind f u_exact breaks f_regions f_region_values f_file'
 
@@ -117,6 +117,8 @@ module dualsig_io_config
     integer :: adapt_max_ndof = 0                  !! 0 = no limit
     real(dp) :: adapt_max_seconds = 0.0_dp         !! 0 = no limit
     real(dp) :: adapt_min_growth = 1.5_dp          !! growth of the unknowns a step at least adds, 1 to 2
+    !> the share of est a step's algebraic errors may add, 0 <= share < 1 (0: exact solves)
+    real(dp) :: adapt_algebraic_share = 1.0e-3_dp
     ! &problem (one's own problem instead of a scene)
     logical :: scene_given = .false.               !! &run scene was given explicitly
     logical :: has_problem = .false.               !! a &problem group was given
@@ -341,7 +343,8 @@ contains
     if (cfg%adapt_enabled) then
       fixed(n + 1) = '&adapt enabled = .true., theta = ' // rtoa(cfg%adapt_theta) // ', tol = ' // &
         rtoa(cfg%adapt_tol) // ', max_ndof = ' // itoa(cfg%adapt_max_ndof) // ', max_seconds = ' // &
-        rtoa(cfg%adapt_max_seconds) // ', min_growth = ' // rtoa(cfg%adapt_min_growth) // ' /'
+        rtoa(cfg%adapt_max_seconds) // ', min_growth = ' // rtoa(cfg%adapt_min_growth) // &
+        ', algebraic_share = ' // rtoa(cfg%adapt_algebraic_share) // ' /'
       n = n + 1
     end if
     prob = ''
@@ -1007,9 +1010,9 @@ contains
     character(len=*), intent(out) :: msg
     character(len=len(assign) + 16) :: rec(size(assign) + 2)
     logical :: enabled
-    real(dp) :: theta, tol, max_seconds, min_growth
+    real(dp) :: theta, tol, max_seconds, min_growth, algebraic_share
     integer :: max_ndof, k
-    namelist /adapt/ enabled, theta, tol, max_ndof, max_seconds, min_growth
+    namelist /adapt/ enabled, theta, tol, max_ndof, max_seconds, min_growth, algebraic_share
     logical :: saved_halting(size(ieee_usual))
     rec(1) = '&adapt'
     do k = 1, size(assign)
@@ -1023,11 +1026,12 @@ contains
     max_ndof = cfg%adapt_max_ndof
     max_seconds = cfg%adapt_max_seconds
     min_growth = cfg%adapt_min_growth
+    algebraic_share = cfg%adapt_algebraic_share
     call fp_traps_off(saved_halting)
     read (rec, nml=adapt, iostat=ios, iomsg=msg)
     call ieee_set_halting_mode(ieee_usual, saved_halting)
     if (ios /= 0) return
-    if (.not. all(ieee_is_finite([theta, tol, max_seconds, min_growth]))) then
+    if (.not. all(ieee_is_finite([theta, tol, max_seconds, min_growth, algebraic_share]))) then
       call bad_value('a finite real number', ios, msg)
       return
     end if
@@ -1037,6 +1041,7 @@ contains
     cfg%adapt_max_ndof = max_ndof
     cfg%adapt_max_seconds = max_seconds
     cfg%adapt_min_growth = min_growth
+    cfg%adapt_algebraic_share = algebraic_share
   end subroutine read_adapt_group
 
   !> Range checks of the &adapt group (after validate's), each naming the variable.
@@ -1059,6 +1064,9 @@ contains
     else if (.not. (cfg%adapt_min_growth >= 1.0_dp .and. cfg%adapt_min_growth <= 2.0_dp)) then
       call set_error(st, DS_ERR_INPUT, where // '&adapt min_growth = ' // rtoa(cfg%adapt_min_growth) // &
         '; expected 1 <= min_growth <= 2 (the growth of the unknowns each step at least adds; 1: Doerfler''s set alone)')
+    else if (.not. (cfg%adapt_algebraic_share >= 0.0_dp .and. cfg%adapt_algebraic_share < 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&adapt algebraic_share = ' // rtoa(cfg%adapt_algebraic_share) // &
+        '; expected 0 <= algebraic_share < 1 (the share of est the solves of a step may leave; 0: solve exactly)')
     else if (cfg%adapt_enabled .and. .not. cfg%dual_enabled) then
       call set_error(st, DS_ERR_INPUT, where // '&adapt enabled = .true. needs &dual enabled = .true. ' // &
         '(the element indicators of the bound est drive the marking)')
@@ -1337,7 +1345,7 @@ contains
     case ('f_region_values')
       s = 'a list of at most 16 quoted expressions'
     case ('x0', 'x1', 'y0', 'y1', 'omega', 'tol', 'rho', 'tol_h2', 'max_memory_gb', 'theta', 'max_seconds', &
-          'min_growth')
+          'min_growth', 'algebraic_share')
       s = 'a real number'
     case ('omega_auto', 'nested', 'enabled', 'vtk', 'latex')
       s = 'a logical, .true. or .false.'

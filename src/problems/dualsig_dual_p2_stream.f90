@@ -63,6 +63,13 @@ module dualsig_dual_p2_stream
   !> inexact: smaller values are solver noise, and the caller's clipping removes them).
   real(dp), parameter :: release_tol = 1.0e-8_dp
   real(dp), parameter :: violation_tol = 1.0e-6_dp
+  !> The same when the solves stop at est_tol (an adaptive step's algebraic share): their
+  !> residual is then about 10^-4 of the load, not 10^-8, and multipliers of 10^-5 max|mu|
+  !> change sign from one solve to the next (doc/performance.md).  A row kept active with a
+  !> small negative multiplier, or a small violation left to make_monotone, keeps the field
+  !> admissible; only est's sharpness is at stake, by less than the share.
+  real(dp), parameter :: release_tol_share = 1.0e-3_dp
+  real(dp), parameter :: violation_tol_share = 1.0e-4_dp
   !> psi is defined up to a constant, R^T K R is semi-definite (R maps constants to
   !> constants; F = G^T b_x is orthogonal to them, G 1 = 0).  Its diagonal is raised by this
   !> fraction: the constants get a small positive energy, which every grid represents
@@ -79,6 +86,11 @@ module dualsig_dual_p2_stream
   !> the strong connections of a merged Gamma_a run, doc/performance.md); the fallback
   !> guards against a stall not seen yet
   integer, parameter :: p1_coarse_max_vcycles = 40
+  !> est as a function of psi is est_excess J(psi) + terms without psi: with lambda = lambda^f
+  !> + curl psi, ||grad u~ - lambda||^2 + 2 int_{Gamma_a} u~ lambda.nu = ||grad u~ - lambda^f||^2
+  !> + ||curl psi||^2 + 2 (lambda^f, curl psi) by Green's formula (div curl psi = 0, u~ = 0 on
+  !> Gamma_u, lambda^f.nu = 0 on Gamma_a), so est - est* = 2 (J - J*) for the J of this module
+  real(dp), parameter :: est_excess = 2.0_dp
 
   !> A Gamma_a row of a kept active set (stream_dual_solve's set_keep): its flux held at 0,
   !> free, or not known (rows off Gamma_a, rows at a new vertex whose edge was half active).
@@ -87,6 +99,16 @@ module dualsig_dual_p2_stream
   type :: stream_settings_t
     real(dp) :: tol = 1.0e-8_dp      !! relative residual of each linear multigrid solve
     integer :: max_steps = 30        !! active-set steps
+    !> > 0: a linear solve also stops when the part of est it could still remove is predicted
+    !> below this (est units; est = 2 J(psi) + terms without psi, see est_excess below)
+    real(dp) :: est_tol = 0.0_dp
+    !> on the hierarchies without the refinements' grids (the P1 grid of the mesh and
+    !> aggregation below it, or aggregation alone): conjugate gradients preconditioned by the
+    !> V-cycle (mg_settings_t%krylov), whose energy contraction there is only about 0.3-0.4 per
+    !> V-cycle; CG's per iteration was 0.03-0.04 on adaptive steps of p2_contact (7 iterations
+    !> where the V-cycles took 7-10 to the algebraic share).  The geometric grids keep the
+    !> plain V-cycles (7 to 1e-8 at every level).
+    logical :: krylov = .true.
   end type stream_settings_t
 
   type :: stream_result_t
@@ -100,6 +122,9 @@ module dualsig_dual_p2_stream
     !> aggregation of R^T K R itself)
     logical :: p1_coarse = .false.
     logical :: converged = .false.   !! the active set settled and the last solve converged
+    !> with est_tol: the part of est the last linear solve left, as predicted (est units;
+    !> huge: no prediction); 0 otherwise
+    real(dp) :: est_gap = 0.0_dp
   end type stream_result_t
 
   !> The Gamma_a edges in boundary order: edge k has ends a(k) -> b(k) (domain on the left),
@@ -183,7 +208,11 @@ contains
       call stream_apply_stiffness(mesh, psi, r)
       r = r - f
       call mu_of_chains(rows, active, r, mu)
-      call next_active(rows, active, mu, x, next)
+      if (settings%est_tol > 0.0_dp) then
+        call next_active(rows, active, mu, x, release_tol_share, violation_tol_share, next)
+      else
+        call next_active(rows, active, mu, x, release_tol, violation_tol, next)
+      end if
       if (all(next .eqv. active)) then
         res%converged = last_ok
         exit
@@ -251,9 +280,11 @@ contains
       end if
     end if
     ms%tol = settings%tol
+    ms%energy_tol = settings%est_tol / est_excess
     ms%fmg_cycles = merge(1, 0, all(z == 0.0_dp))
     max_iter_default = ms%max_iter
     res%p1_coarse = .false.
+    ms%krylov = settings%krylov .and. .not. res%geometric
     if (.not. res%geometric .and. try_p1) then
       call p1_aggregated_hierarchy(mesh, kz, pz, h, res%p1_coarse)
       if (res%p1_coarse) then
@@ -289,6 +320,7 @@ contains
       return
     end if
     last_ok = mr%converged
+    res%est_gap = merge(est_excess * mr%energy_gap, 0.0_dp, settings%est_tol > 0.0_dp)
     call rect_matvec(rmat, z, psi)
   end subroutine solve_with_active
 
@@ -947,10 +979,11 @@ contains
   !> The next active set of the primal-dual active set method: an active row stays while
   !> its multiplier is not negative, a free row joins when its flux is negative (tolerances
   !> relative to the largest multiplier and flux, see release_tol).
-  pure subroutine next_active(rows, active, mu, x, next)
+  pure subroutine next_active(rows, active, mu, x, release, violation, next)
     type(stream_gamma_rows_t), intent(in) :: rows
     logical, intent(in) :: active(:,:)
     real(dp), intent(in) :: mu(:,:), x(:)
+    real(dp), intent(in) :: release, violation
     logical, intent(out) :: next(:,:)
     real(dp) :: mu_scale, x_scale
     integer :: k, i
@@ -960,9 +993,9 @@ contains
     do k = 1, rows%n
       do i = 1, 2
         if (active(i, k)) then
-          next(i, k) = mu(i, k) >= -release_tol * mu_scale
+          next(i, k) = mu(i, k) >= -release * mu_scale
         else
-          next(i, k) = x(rows%dof(i, k)) < -violation_tol * x_scale
+          next(i, k) = x(rows%dof(i, k)) < -violation * x_scale
         end if
       end do
     end do

@@ -78,6 +78,9 @@ module dualsig_problem_dual_p2
     !> lambda^f: 'polynomial' (piecewise linear, div = -f_T: every bound integral exact, f - f_T
     !> an oscillation term) or 'stream' (the paper's lambda_bar + curl omega, div = -f)
     character(len=16) :: particular = 'polynomial'
+    !> multigrid: > 0 stops the stream function's solves when the part of est they could still
+    !> remove is predicted below this (est's units; the adaptive loop's algebraic share)
+    real(dp) :: est_tol = 0.0_dp
   end type dual_p2_settings_t
 
   type :: dual_p2_result_t
@@ -102,6 +105,9 @@ module dualsig_problem_dual_p2
     real(dp) :: seconds_loads = 0.0_dp       !! element loads b_e (lambda^f at the quadrature points)
     real(dp) :: seconds_solver = 0.0_dp      !! global assembly and the solver (factorisations included)
     logical :: particular_converged = .true. !! 'stream': every line integral of lambda_bar converged
+    !> multigrid with est_tol: the part of est the solve left, as predicted (0: solved to its
+    !> residual tolerance)
+    real(dp) :: est_gap = 0.0_dp
   end type dual_p2_result_t
 
 contains
@@ -313,8 +319,10 @@ contains
     allocate (bx(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the equilibrium load', 2 * mesh%nedge, BYTES_REAL)) return
     call equilibrium_to_global(map, be, bx)
+    sset%est_tol = settings%est_tol
     call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal, psi, active_set)
     if (.not. is_ok(st)) return
+    res%est_gap = sres%est_gap
     res%iterations = sres%steps
     res%inner = 'multigrid'
     if (.not. sres%geometric) res%inner = trim(merge('multigrid_p1amg', 'multigrid_amg  ', sres%p1_coarse))

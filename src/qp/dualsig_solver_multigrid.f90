@@ -69,6 +69,13 @@ module dualsig_solver_multigrid
   real(dp), parameter :: amg_min_coarsening = 0.8_dp
   !> Default limit of TNNMG iterations (each reduces the residual by about ten).
   integer, parameter :: mg_max_iter_default = 200
+  !> The energy stop (mg_settings_t%energy_tol) predicts the decrease of J still to come
+  !> from the last two decreases, as a geometric series with ratio q (J - J* = e^T A e / 2
+  !> contracts by about q per V-cycle): remaining <= delta_k q / (1 - q).  Two ratios are
+  !> compared and the larger taken; it is trusted only below energy_ratio_max (a slower
+  !> iteration is not yet in its asymptotic regime) and taken at least energy_ratio_min (the
+  !> first V-cycles remove the rough error much faster than the rest).
+  real(dp), parameter :: energy_ratio_max = 0.8_dp, energy_ratio_min = 0.05_dp
   !> The coarsest grid is solved exactly by CHOLMOD (its factor is 1/4^(L-1) of the finest
   !> grid's size); symmetric Gauss-Seidel sweeps replace it when its truncated operator is
   !> only semi-definite and the factorisation fails.
@@ -124,6 +131,13 @@ module dualsig_solver_multigrid
     !> a cold start (x = 0 on entry) replaced by nested iteration on the coarser grids
     !> (fmg_start), with this many iterations per coarser grid; 0: no such start
     integer :: fmg_cycles = 1
+    !> > 0: also stop when the decrease of J(x) = x^T A x / 2 - f^T x still to come is
+    !> predicted below this (J's units; energy_ratio_max): for a caller to whom J - J* is
+    !> a known part of an error bound (the adaptive loop: a fraction of the predicted est)
+    real(dp) :: energy_tol = 0.0_dp
+    !> without bounds (every unknown BOUND_FREE): conjugate gradients preconditioned by one
+    !> symmetric V-cycle instead of the plain V-cycles (pcg_linear); ignored with bounds
+    logical :: krylov = .false.
   end type mg_settings_t
 
   type :: mg_result_t
@@ -132,7 +146,21 @@ module dualsig_solver_multigrid
     integer :: grids = 0                          !! grids of the hierarchy used
     real(dp) :: kkt_residual = 0.0_dp             !! relative KKT residual of the returned x
     logical :: converged = .false.
+    !> stopped by settings%energy_tol (converged is then .true. whatever kkt_residual)
+    logical :: energy_stop = .false.
+    !> with settings%energy_tol: the predicted decrease of J still to come at the return
+    !> (J(x) - J(x*), a prediction; huge when none could be made)
+    real(dp) :: energy_gap = 0.0_dp
   end type mg_result_t
+
+  !> The iterates seen by the energy stop: the last x and its residual f - A x, and the
+  !> last two decreases of J.
+  type :: energy_track_t
+    real(dp), allocatable :: x(:), r(:)
+    real(dp) :: delta = -1.0_dp             !! the last decrease (-1: not yet known)
+    real(dp) :: ratio = -1.0_dp             !! the last ratio of two decreases (-1: not yet known)
+    integer :: seen = 0                     !! iterates seen
+  end type energy_track_t
 
 contains
 
@@ -434,6 +462,7 @@ contains
     type(status_t), intent(out) :: st
     real(dp), allocatable :: r(:), v(:)
     logical, allocatable :: frozen(:), frozen_prev(:)
+    type(energy_track_t) :: track
     real(dp) :: den
     integer :: n, ierr, nchanged, k
 
@@ -458,7 +487,22 @@ contains
     where (kind == BOUND_FIXED) x = bnd
     where (kind == BOUND_LOWER) x = max(x, bnd)
     den = sqrt(sum(f**2, mask=kind /= BOUND_FIXED))
+    if (settings%krylov .and. all(kind == BOUND_FREE)) then
+      frozen = .false.
+      call galerkin_all(h, a, frozen, st)
+      if (is_ok(st)) call pcg_linear(h, a, f, x, settings, den, r, v, frozen, res, st)
+      h%values_fresh = .false.
+      return
+    end if
     frozen_prev = .false.
+    if (settings%energy_tol > 0.0_dp) then
+      allocate (track%x(n), track%r(n), stat=ierr)
+      if (ierr /= 0) then
+        call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(n) // ' unknowns')
+        return
+      end if
+      res%energy_gap = huge(1.0_dp)
+    end if
     do
       do k = 1, settings%sweeps
         call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 1)
@@ -470,6 +514,11 @@ contains
         exit
       end if
       res%converged = res%kkt_residual <= settings%tol
+      if (settings%energy_tol > 0.0_dp .and. .not. res%converged) then
+        call energy_track(track, x, r, res%energy_gap)
+        res%energy_stop = res%energy_gap <= settings%energy_tol
+        res%converged = res%energy_stop
+      end if
       if (res%converged .or. res%iterations >= settings%max_iter) exit
       res%iterations = res%iterations + 1
       if (res%iterations == 1) then
@@ -492,10 +541,172 @@ contains
       return
     end if
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, r)
-    res%converged = res%kkt_residual <= settings%tol
+    res%converged = res%kkt_residual <= settings%tol .or. res%energy_stop
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'multigrid: not converged after ' // &
       itoa(res%iterations) // ' iterations (KKT residual above the tolerance)')
   end subroutine multigrid_solve
+
+  !> Record the iterate x with its residual r = f - A x and predict J(x) - J(x*) (gap; huge
+  !> when it cannot be predicted yet).  The decrease from the last iterate y is computed
+  !> without forming J: J(y) - J(x) = (x - y)^T (r_x + r_y) / 2, which keeps its digits when
+  !> J itself is large.  A decrease <= 0 is the rounding floor of J: nothing left to gain.
+  pure subroutine energy_track(track, x, r, gap)
+    type(energy_track_t), intent(inout) :: track
+    real(dp), intent(in) :: x(:), r(:)
+    real(dp), intent(out) :: gap
+    real(dp) :: delta
+    integer :: i
+    gap = huge(1.0_dp)
+    track%seen = track%seen + 1
+    if (track%seen >= 2) then
+      delta = 0.0_dp
+      do i = 1, size(x)
+        delta = delta + (x(i) - track%x(i)) * (r(i) + track%r(i))
+      end do
+      delta = 0.5_dp * delta
+      if (delta <= 0.0_dp) then
+        gap = 0.0_dp
+      else if (track%delta > 0.0_dp) then
+        gap = predicted_gap(delta, delta / track%delta, track%ratio)
+        track%ratio = delta / track%delta
+      end if
+      track%delta = delta
+    end if
+    track%x = x
+    track%r = r
+  end subroutine energy_track
+
+  !> A x = f (no bounds) by conjugate gradients from x, preconditioned by one symmetric
+  !> V-cycle (pcg_vcycle), for multigrid_solve with settings%krylov; den = ||f||.  A V-cycle
+  !> that contracts the energy error by q per cycle makes a condition number of about
+  !> (1 + sqrt q) / (1 - sqrt q) for CG, whose rate sqrt(kappa) - 1 / (sqrt(kappa) + 1) is
+  !> well below sqrt q when q is not small (the aggregation grids of an adaptive step: q about
+  !> 0.4).  Stops at the relative residual settings%tol or by the energy stop: a CG step
+  !> lowers J by alpha r^T z / 2 exactly, so the decreases come without extra work.
+  !> r, z, frozen: work vectors of the matrix's order (frozen all .false.).
+  subroutine pcg_linear(h, a, f, x, settings, den, r, z, frozen, res, st)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    real(dp), intent(inout) :: x(:)
+    type(mg_settings_t), intent(in) :: settings
+    real(dp), intent(in) :: den
+    real(dp), intent(inout) :: r(:), z(:)
+    logical, intent(in) :: frozen(:)
+    type(mg_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    real(dp), allocatable :: p(:), q(:), w(:), w2(:)
+    real(dp) :: rz, rz_new, alpha, delta, delta_prev, ratio_prev, ratio
+    integer :: ierr
+    allocate (p(a%n), q(a%n), w(a%n), w2(a%n), stat=ierr)
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(a%n) // ' unknowns')
+      return
+    end if
+    call csr_matvec(a, x, r)
+    r = f - r
+    res%kkt_residual = norm_ratio(r, den)
+    res%converged = res%kkt_residual <= settings%tol
+    if (res%converged) return
+    call pcg_vcycle(h, a, r, z, w, w2, frozen, settings)
+    p = z
+    rz = dot_product(r, z)
+    delta_prev = -1.0_dp
+    ratio_prev = -1.0_dp
+    if (settings%energy_tol > 0.0_dp) res%energy_gap = huge(1.0_dp)
+    do while (res%iterations < settings%max_iter)
+      res%iterations = res%iterations + 1
+      call csr_matvec(a, p, q)
+      alpha = rz / dot_product(p, q)
+      if (.not. (abs(alpha) <= huge(1.0_dp))) then
+        call set_error(st, DS_ERR_NUMERIC, 'multigrid: conjugate gradients broke down (p^T A p is not positive)')
+        return
+      end if
+      x = x + alpha * p
+      r = r - alpha * q
+      res%kkt_residual = norm_ratio(r, den)
+      res%converged = res%kkt_residual <= settings%tol
+      if (settings%energy_tol > 0.0_dp .and. .not. res%converged) then
+        delta = 0.5_dp * alpha * rz                  ! J(x_old) - J(x_new)
+        if (delta_prev > 0.0_dp) then
+          ratio = delta / delta_prev
+          res%energy_gap = predicted_gap(delta, ratio, ratio_prev)
+          ratio_prev = ratio
+        end if
+        delta_prev = delta
+        res%energy_stop = res%energy_gap <= settings%energy_tol
+        res%converged = res%energy_stop
+      end if
+      if (res%converged) exit
+      call pcg_vcycle(h, a, r, z, w, w2, frozen, settings)
+      rz_new = dot_product(r, z)
+      p = z + (rz_new / rz) * p
+      rz = rz_new
+    end do
+    call csr_matvec(a, x, r)                         ! the true residual of the returned x
+    r = f - r
+    res%kkt_residual = norm_ratio(r, den)
+    res%converged = res%kkt_residual <= settings%tol .or. res%energy_stop
+    if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'multigrid: not converged after ' // &
+      itoa(res%iterations) // ' conjugate-gradient iterations (residual above the tolerance)')
+  end subroutine pcg_linear
+
+  !> ||r|| / den (den = 0: ||r||).
+  pure real(dp) function norm_ratio(r, den) result(ratio)
+    real(dp), intent(in) :: r(:), den
+    ratio = sqrt(sum(r**2))
+    if (den > 0.0_dp) ratio = ratio / den
+  end function norm_ratio
+
+  !> z = B r, B one symmetric V-cycle for A from zero: settings%sweeps Gauss-Seidel sweeps
+  !> (forward, backward, ...), the coarse correction (coarse_correction: a V-cycle with an odd
+  !> number of sweeps per grid, symmetric, exact on grid 1), then the same sweeps in the
+  !> adjoint order (the pre-smoothing's directions reversed and flipped), so B is symmetric
+  !> positive definite as CG needs.  w, w2: work vectors.
+  subroutine pcg_vcycle(h, a, r, z, w, w2, frozen, settings)
+    type(mg_hierarchy_t), intent(inout) :: h
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: r(:)
+    real(dp), intent(out) :: z(:)
+    real(dp), intent(inout) :: w(:), w2(:)
+    logical, intent(in) :: frozen(:)
+    type(mg_settings_t), intent(in) :: settings
+    integer :: k, n
+    n = settings%sweeps
+    z = 0.0_dp
+    do k = 1, n
+      call gs_linear(a, r, z, mod(k, 2) == 1)
+    end do
+    call csr_matvec(a, z, w)
+    w = r - w
+    call coarse_correction(h, frozen, w, w2, pcg_coarse_sweeps(settings%coarse_sweeps))
+    z = z + w2
+    do k = 1, n
+      call gs_linear(a, r, z, mod(n - k + 1, 2) /= 1)
+    end do
+  end subroutine pcg_vcycle
+
+  !> The sweeps per coarse grid of a symmetric V-cycle: coarse_correction's V-cycle is
+  !> symmetric for an odd number (its post-sweeps are the adjoint of its pre-sweeps then).
+  pure integer function pcg_coarse_sweeps(nu) result(n)
+    integer, intent(in) :: nu
+    n = max(1, nu)
+    if (mod(n, 2) == 0) n = n + 1
+  end function pcg_coarse_sweeps
+
+  !> The energy stop's prediction of J - J* from the last decrease delta and the last two
+  !> ratios of decreases (ratio_prev < 0: not known yet): delta q / (1 - q), q the larger
+  !> ratio, at least energy_ratio_min; huge when q >= energy_ratio_max.
+  pure real(dp) function predicted_gap(delta, ratio, ratio_prev) result(gap)
+    real(dp), intent(in) :: delta, ratio, ratio_prev
+    real(dp) :: q
+    gap = huge(1.0_dp)
+    q = ratio
+    if (ratio_prev > 0.0_dp) q = max(q, ratio_prev)
+    if (q >= energy_ratio_max) return
+    q = max(q, energy_ratio_min)
+    gap = delta * q / (1.0_dp - q)
+  end function predicted_gap
 
   !> A start for a cold solve by nested iteration inside the hierarchy (full multigrid):
   !> the QP restricted to grid l = 2..L-1 (the Galerkin operator P^T A P, the load P^T F,
