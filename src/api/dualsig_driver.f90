@@ -839,8 +839,6 @@ contains
       res%primal_iters, ' ' // trim(primal_steps(res%primal_method)) // ', ', res%primal_factorisations, ' ' // &
       trim(merge('Galerkin updates', 'factorisations  ', index(res%primal_method, 'multigrid') == 1)) // ', ', &
       res%ndof, ' unknowns'
-    if (res%primal_est_gap > 0.0_dp) write (unit, '(a,es9.2,a)') '    stopped at the algebraic share: est + ', &
-      res%primal_est_gap, ' (predicted part of est the solve left)'
     if (.not. res%has_dual) return
     if (run%problem%kind == PROBLEM_P1) then
       associate (d => res%dual_p1)

@@ -117,7 +117,7 @@ module dualsig_io_config
     integer :: adapt_max_ndof = 0                  !! 0 = no limit
     real(dp) :: adapt_max_seconds = 0.0_dp         !! 0 = no limit
     real(dp) :: adapt_min_growth = 1.5_dp          !! growth of the unknowns a step at least adds, 1 to 2
-    !> the share of est a step's algebraic errors may add, 0 <= share < 1 (0: exact solves)
+    !> the share of est the algebraic error of a step's dual may add, 0 <= share < 1 (0: exact)
     real(dp) :: adapt_algebraic_share = 1.0e-3_dp
     ! &problem (one's own problem instead of a scene)
     logical :: scene_given = .false.               !! &run scene was given explicitly
@@ -1066,7 +1066,7 @@ contains
         '; expected 1 <= min_growth <= 2 (the growth of the unknowns each step at least adds; 1: Doerfler''s set alone)')
     else if (.not. (cfg%adapt_algebraic_share >= 0.0_dp .and. cfg%adapt_algebraic_share < 1.0_dp)) then
       call set_error(st, DS_ERR_INPUT, where // '&adapt algebraic_share = ' // rtoa(cfg%adapt_algebraic_share) // &
-        '; expected 0 <= algebraic_share < 1 (the share of est the solves of a step may leave; 0: solve exactly)')
+        '; expected 0 <= algebraic_share < 1 (the share of est the dual solve of a step may leave; 0: solve exactly)')
     else if (cfg%adapt_enabled .and. .not. cfg%dual_enabled) then
       call set_error(st, DS_ERR_INPUT, where // '&adapt enabled = .true. needs &dual enabled = .true. ' // &
         '(the element indicators of the bound est drive the marking)')

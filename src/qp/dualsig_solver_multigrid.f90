@@ -71,7 +71,7 @@ module dualsig_solver_multigrid
   integer, parameter :: mg_max_iter_default = 200
   !> The energy stop (mg_settings_t%energy_tol) predicts the decrease of J still to come
   !> from the last two decreases, as a geometric series with ratio q (J - J* = e^T A e / 2
-  !> contracts by about q per V-cycle): remaining <= delta_k q / (1 - q).  Two ratios are
+  !> contracts by about q per iteration): remaining <= delta_k q / (1 - q).  Two ratios are
   !> compared and the larger taken; it is trusted only below energy_ratio_max (a slower
   !> iteration is not yet in its asymptotic regime) and taken at least energy_ratio_min (the
   !> first V-cycles remove the rough error much faster than the rest).
@@ -131,9 +131,9 @@ module dualsig_solver_multigrid
     !> a cold start (x = 0 on entry) replaced by nested iteration on the coarser grids
     !> (fmg_start), with this many iterations per coarser grid; 0: no such start
     integer :: fmg_cycles = 1
-    !> > 0: also stop when the decrease of J(x) = x^T A x / 2 - f^T x still to come is
-    !> predicted below this (J's units; energy_ratio_max): for a caller to whom J - J* is
-    !> a known part of an error bound (the adaptive loop: a fraction of the predicted est)
+    !> with krylov and no bounds, > 0: also stop when the decrease of J(x) = x^T A x / 2 -
+    !> f^T x still to come is predicted below this (J's units; predicted_gap): for a caller
+    !> to whom J - J* is a known part of an error bound (the adaptive loop's dual)
     real(dp) :: energy_tol = 0.0_dp
     !> without bounds (every unknown BOUND_FREE): conjugate gradients preconditioned by one
     !> symmetric V-cycle instead of the plain V-cycles (pcg_linear); ignored with bounds
@@ -152,15 +152,6 @@ module dualsig_solver_multigrid
     !> (J(x) - J(x*), a prediction; huge when none could be made)
     real(dp) :: energy_gap = 0.0_dp
   end type mg_result_t
-
-  !> The iterates seen by the energy stop: the last x and its residual f - A x, and the
-  !> last two decreases of J.
-  type :: energy_track_t
-    real(dp), allocatable :: x(:), r(:)
-    real(dp) :: delta = -1.0_dp             !! the last decrease (-1: not yet known)
-    real(dp) :: ratio = -1.0_dp             !! the last ratio of two decreases (-1: not yet known)
-    integer :: seen = 0                     !! iterates seen
-  end type energy_track_t
 
 contains
 
@@ -462,7 +453,6 @@ contains
     type(status_t), intent(out) :: st
     real(dp), allocatable :: r(:), v(:)
     logical, allocatable :: frozen(:), frozen_prev(:)
-    type(energy_track_t) :: track
     real(dp) :: den
     integer :: n, ierr, nchanged, k
 
@@ -495,14 +485,6 @@ contains
       return
     end if
     frozen_prev = .false.
-    if (settings%energy_tol > 0.0_dp) then
-      allocate (track%x(n), track%r(n), stat=ierr)
-      if (ierr /= 0) then
-        call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(n) // ' unknowns')
-        return
-      end if
-      res%energy_gap = huge(1.0_dp)
-    end if
     do
       do k = 1, settings%sweeps
         call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 1)
@@ -514,11 +496,6 @@ contains
         exit
       end if
       res%converged = res%kkt_residual <= settings%tol
-      if (settings%energy_tol > 0.0_dp .and. .not. res%converged) then
-        call energy_track(track, x, r, res%energy_gap)
-        res%energy_stop = res%energy_gap <= settings%energy_tol
-        res%converged = res%energy_stop
-      end if
       if (res%converged .or. res%iterations >= settings%max_iter) exit
       res%iterations = res%iterations + 1
       if (res%iterations == 1) then
@@ -541,40 +518,10 @@ contains
       return
     end if
     res%kkt_residual = kkt_residual(a, f, kind, bnd, x, r)
-    res%converged = res%kkt_residual <= settings%tol .or. res%energy_stop
+    res%converged = res%kkt_residual <= settings%tol
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'multigrid: not converged after ' // &
       itoa(res%iterations) // ' iterations (KKT residual above the tolerance)')
   end subroutine multigrid_solve
-
-  !> Record the iterate x with its residual r = f - A x and predict J(x) - J(x*) (gap; huge
-  !> when it cannot be predicted yet).  The decrease from the last iterate y is computed
-  !> without forming J: J(y) - J(x) = (x - y)^T (r_x + r_y) / 2, which keeps its digits when
-  !> J itself is large.  A decrease <= 0 is the rounding floor of J: nothing left to gain.
-  pure subroutine energy_track(track, x, r, gap)
-    type(energy_track_t), intent(inout) :: track
-    real(dp), intent(in) :: x(:), r(:)
-    real(dp), intent(out) :: gap
-    real(dp) :: delta
-    integer :: i
-    gap = huge(1.0_dp)
-    track%seen = track%seen + 1
-    if (track%seen >= 2) then
-      delta = 0.0_dp
-      do i = 1, size(x)
-        delta = delta + (x(i) - track%x(i)) * (r(i) + track%r(i))
-      end do
-      delta = 0.5_dp * delta
-      if (delta <= 0.0_dp) then
-        gap = 0.0_dp
-      else if (track%delta > 0.0_dp) then
-        gap = predicted_gap(delta, delta / track%delta, track%ratio)
-        track%ratio = delta / track%delta
-      end if
-      track%delta = delta
-    end if
-    track%x = x
-    track%r = r
-  end subroutine energy_track
 
   !> A x = f (no bounds) by conjugate gradients from x, preconditioned by one symmetric
   !> V-cycle (pcg_vcycle), for multigrid_solve with settings%krylov; den = ||f||.  A V-cycle
