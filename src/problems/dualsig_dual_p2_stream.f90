@@ -122,8 +122,8 @@ module dualsig_dual_p2_stream
     !> aggregation of R^T K R itself)
     logical :: p1_coarse = .false.
     logical :: converged = .false.   !! the active set settled and the last solve converged
-    !> with est_tol: the part of est the last linear solve left, as predicted (est units;
-    !> huge: no prediction); 0 otherwise
+    !> the part of est the last linear solve left, as predicted, when it stopped at est_tol
+    !> (est units); 0 when it was solved to its residual tolerance
     real(dp) :: est_gap = 0.0_dp
   end type stream_result_t
 
@@ -320,7 +320,8 @@ contains
       return
     end if
     last_ok = mr%converged
-    res%est_gap = merge(est_excess * mr%energy_gap, 0.0_dp, settings%est_tol > 0.0_dp)
+    res%est_gap = 0.0_dp                    ! (energy_gap is huge when no prediction was made)
+    if (mr%energy_stop) res%est_gap = est_excess * mr%energy_gap
     call rect_matvec(rmat, z, psi)
   end subroutine solve_with_active
 
