@@ -63,7 +63,7 @@ contains
     call p1_gradients(xy, g%grad, g%area)
     do k = 1, 3
       d = xy(:, mod(k, 3) + 1) - xy(:, k)
-      g%side(k) = hypot(d(1), d(2))
+      g%side(k) = sqrt(d(1)**2 + d(2)**2)
     end do
     g%h = maxval(g%side)
   end function rt1_geometry

@@ -103,7 +103,7 @@ contains
     do t = 1, mesh%ntri
       do k = 1, 3
         d = mesh%xy(:, mesh%tri(mod(k, 3) + 1, t)) - mesh%xy(:, mesh%tri(k, t))
-        h = max(h, hypot(d(1), d(2)))
+        h = max(h, sqrt(d(1)**2 + d(2)**2))
       end do
     end do
   end function mesh_h

@@ -88,7 +88,7 @@ contains
       p = mesh%xy(:, mesh%tri(:, t))
       do k = 1, 3
         d(:, k) = p(:, mod(k, 3) + 1) - p(:, k)     ! local edge k: vertex k -> k+1
-        side(k) = hypot(d(1, k), d(2, k))
+        side(k) = sqrt(d(1, k)**2 + d(2, k)**2)
       end do
       longest = maxval(side)
       shortest = minval(side)

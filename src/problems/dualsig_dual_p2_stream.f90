@@ -640,7 +640,7 @@ contains
     do kl = 1, 3
       if (mesh%tri_edge(kl, t) == e .and. mesh%tri(kl, t) == n1) w = 1.0_dp
     end do
-    w = w / hypot(d(1), d(2))
+    w = w / sqrt(d(1)**2 + d(2)**2)
   end function flux_scale
 
   !> x = G psi (stream_flux_matrix), edge by edge.
