@@ -132,8 +132,8 @@ module dualsig_analysis
   !> function's CG then stops after a few iterations instead of at its residual tolerance
   !> (doc/performance.md); the bound stays guaranteed whatever the share.  The primal is
   !> always solved to its tolerance: u_h is the answer a user takes away (stopped at the same
-  !> share, its L2 error was 1.3 to 3.5 times the discretisation's on p2_contact from 1.2e6 to
-  !> 4.2e6 unknowns, growing), lambda_h the certificate.
+  !> share it was an iterate, KKT residual about 1e-4, L2 error up to 1.5 times the
+  !> minimiser's on p2_contact from 8e5 to 6.5e6 unknowns), lambda_h the certificate.
   real(dp), parameter :: adapt_algebraic_share_default = 1.0e-3_dp
 
   !> The adaptive loop solve -> estimate -> mark (Doerfler) -> refine (newest-vertex
