@@ -28,7 +28,8 @@ module dualsig_analysis
   use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_mesh_adapt, only: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler, &
-                                mesh_bisection_origin
+                                mesh_bisection_origin, mesh_bisection_ancestor
+  use dualsig_assembly_equilibrium, only: equilibrium_prolongate_bisection
   use dualsig_sparse_direct, only: ORDERING_GEOMETRIC
   use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spectral, only: jacobi_scaled_extremes, sor_omega_from_jacobi
@@ -309,6 +310,9 @@ module dualsig_analysis
     !> P2 dual 'multigrid': the last level's stream function, prolongated by a uniform refinement
     real(dp), allocatable :: psi(:)
     integer, allocatable :: psi_set(:,:)     !! and its active set on Gamma_a (2, nbedge)
+    !> P2 dual, adaptive: the last step's polynomial lambda^f (global edge-end fluxes), carried
+    !> to the bisection: the start of the next step's lambda^f, so that psi stays a close start
+    real(dp), allocatable :: flux_f(:)
     real(dp) :: prolong_seconds = 0.0_dp    !! wall time of that prolongation (part of the dual's cost)
     real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
     real(dp) :: last_step_seconds = 0.0_dp  !! wall time of the last level / step
@@ -535,6 +539,7 @@ contains
     call dual_hdiv_nested_free(an%nest)   ! 'nested' needs a uniform refinement
     call mg_clear(an%mg)                    ! not a uniform refinement: no multigrid hierarchy
     if (allocated(an%psi)) call prolongate_psi_bisection(an, finer, parents, st)
+    if (allocated(an%flux_f) .and. is_ok(st)) call prolongate_flux_bisection(an, finer, parents, st)
     if (.not. is_ok(st)) return
     allocate (u_next(finer%nnode), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated solution', finer%nnode, BYTES_REAL)) return
@@ -778,6 +783,42 @@ contains
     if (allocated(an%psi_set) .and. .not. set_carried) deallocate (an%psi_set)
     if (st_carry%code == DS_ERR_MEMORY) st = st_carry
   end subroutine prolongate_psi_bisection
+
+  !> The last adaptive step's polynomial lambda^f (an%flux_f) as a field of the bisection
+  !> `finer` (equilibrium_prolongate_bisection, exact): the start of the next step's
+  !> lambda^f.  The equilibration then moves only the change of the load means, which sums to
+  !> zero over every bisected triangle, so the new lambda^f stays close to the old and the
+  !> carried psi stays a close start (rebuilt from zero, lambda^f changed by O(1) every step,
+  !> and the stream function's first CG step removed 2.7 of J where the share asked 1e-9).
+  !> Dropped when it cannot be carried (the next step's lambda^f starts from zero); only
+  !> running out of memory stops the step.
+  subroutine prolongate_flux_bisection(an, finer, parents, st)
+    type(analysis_t), intent(inout) :: an
+    type(mesh_t), intent(in) :: finer
+    integer, intent(in) :: parents(:,:)
+    type(status_t), intent(inout) :: st
+    type(status_t) :: st_carry
+    real(dp), allocatable :: flux_fine(:)
+    integer, allocatable :: ancestor(:)
+    logical :: ok
+    integer :: ist
+    ok = size(an%flux_f) == 2 * an%mesh%nedge
+    if (ok) then
+      allocate (ancestor(finer%ntri), stat=ist)
+      if (alloc_failed(ist, st, 'the ancestors of the refined triangles', finer%ntri, BYTES_INT)) return
+      call mesh_bisection_ancestor(an%mesh, finer, parents, ancestor, ok)
+    end if
+    if (ok) then
+      call equilibrium_prolongate_bisection(an%mesh, finer, ancestor, parents, an%flux_f, flux_fine, st_carry)
+      ok = is_ok(st_carry)
+      if (st_carry%code == DS_ERR_MEMORY) st = st_carry
+    end if
+    if (ok) then
+      call move_alloc(flux_fine, an%flux_f)
+    else
+      deallocate (an%flux_f)
+    end if
+  end subroutine prolongate_flux_bisection
 
   !> Dual method 'nested': the RT1 field of the level an%mesh as a field of its uniform
   !> refinement `finer` (exact, hdiv_prolongate), the start of the next level's dual solve,
@@ -1223,11 +1264,13 @@ contains
     associate (pb => an%problem, mesh => an%mesh)
       if (allocated(pb%x_breaks)) then
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           pb%x_breaks, an%u, load=load, mg=an%mg, psi=an%psi, active_set=an%psi_set)
+                           pb%x_breaks, an%u, load=load, mg=an%mg, psi=an%psi, active_set=an%psi_set, flux_f=an%flux_f)
       else
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
-                           u_primal=an%u, load=load, mg=an%mg, psi=an%psi, active_set=an%psi_set)
+                           u_primal=an%u, load=load, mg=an%mg, psi=an%psi, active_set=an%psi_set, flux_f=an%flux_f)
       end if
+      ! lambda^f is carried across adaptive steps only (a uniform level starts its own)
+      if (.not. an%settings%adapt%enabled .and. allocated(an%flux_f)) deallocate (an%flux_f)
     end associate
   end subroutine solve_p2_field
 

@@ -18,16 +18,18 @@ module dualsig_assembly_equilibrium
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, csr_pattern_from_cliques, csr_add_block, rect_from_triplets
   use dualsig_elements_equilibrium, only: param_side, param_vertex, equilibrium_c_matrix, &
-                                          equilibrium_element_matrix, equilibrium_div_row
+                                          equilibrium_element_matrix, equilibrium_div_row, &
+                                          equilibrium_field_xy
   use dualsig_qp_types, only: ROW_EQUALITY, ROW_INEQUALITY
-  use dualsig_status, only: status_t
+  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
   use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
 
   public :: equilibrium_map_t, equilibrium_map, equilibrium_elements, assemble_equilibrium_global, &
             equilibrium_to_global, equilibrium_to_local, equilibrium_div_rows_global, &
-            equilibrium_rows_local, equilibrium_gamma_a_dofs, equilibrium_div_coefficients
+            equilibrium_rows_local, equilibrium_gamma_a_dofs, equilibrium_div_coefficients, &
+            equilibrium_prolongate_bisection
 
   type :: equilibrium_map_t
     integer :: ntri = 0
@@ -255,4 +257,60 @@ contains
     end do
     call rect_from_triplets(nrow, 6 * mesh%ntri, r(1:nnz), c(1:nnz), v(1:nnz), bmat, st)
   end subroutine equilibrium_rows_local
+
+  !> The piecewise linear field with global edge-end fluxes x_coarse on `coarse` as a field of
+  !> its bisection `fine` (ancestor: mesh_bisection_ancestor; parents: the new nodes' edge
+  !> ends): x_fine(2 (e - 1) + j) = q.n_e at end node j of fine edge e, q evaluated in the
+  !> ancestor of e's reference triangle edge_tri(1, e).  Exact: q is linear in every coarse
+  !> triangle and the fine edges lie in one (on a coarse edge both neighbours give the same
+  !> normal flux, the continuity of the space), so q.n_e is linear on e and fixed by its two
+  !> end values.  The divergence of every fine triangle is that of q there.
+  subroutine equilibrium_prolongate_bisection(coarse, fine, ancestor, parents, x_coarse, x_fine, st)
+    type(mesh_t), intent(in) :: coarse, fine
+    integer, intent(in) :: ancestor(:)           !! (fine%ntri)
+    integer, intent(in) :: parents(:,:)          !! (2, fine%nnode - coarse%nnode)
+    real(dp), intent(in) :: x_coarse(:)          !! (2 coarse%nedge)
+    real(dp), allocatable, intent(out) :: x_fine(:)
+    type(status_t), intent(out) :: st
+    type(equilibrium_map_t) :: map
+    real(dp) :: xy(2, 3), beta(6), d(2), nu(2), bary(3), q(2)
+    integer :: e, t, c, j, k, n, ist
+    if (size(x_coarse) /= 2 * coarse%nedge .or. size(ancestor) /= fine%ntri .or. &
+        size(parents, 2) /= fine%nnode - coarse%nnode) then
+      call set_error(st, DS_ERR_INPUT, 'equilibrium_prolongate_bisection: the fluxes, ancestors or parents ' // &
+        'are not of these meshes')
+      return
+    end if
+    if (any(ancestor < 1 .or. ancestor > coarse%ntri)) then
+      call set_error(st, DS_ERR_INPUT, 'equilibrium_prolongate_bisection: an ancestor is not a triangle of ' // &
+        'the coarse mesh (expected mesh_bisection_ancestor''s map)')
+      return
+    end if
+    call equilibrium_map(coarse, map, st)
+    if (st%code /= 0) return
+    allocate (x_fine(2 * fine%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the prolongated fluxes', 2 * fine%nedge, BYTES_REAL)) return
+    do e = 1, fine%nedge
+      t = fine%edge_tri(1, e)
+      c = ancestor(t)
+      xy = coarse%xy(:, coarse%tri(:, c))
+      beta = map%sgn(:, c) * x_coarse(map%dof(:, c))
+      ! n_e: the outward normal of t on e (the side of t from its vertex k to k + 1)
+      k = findloc(fine%tri_edge(:, t), e, dim=1)
+      d = fine%xy(:, fine%tri(mod(k, 3) + 1, t)) - fine%xy(:, fine%tri(k, t))
+      nu = [d(2), -d(1)] / sqrt(d(1)**2 + d(2)**2)
+      do j = 1, 2
+        n = fine%edge_nodes(j, e)
+        bary = 0.0_dp
+        if (n <= coarse%nnode) then
+          where (coarse%tri(:, c) == n) bary = 1.0_dp
+        else
+          where (coarse%tri(:, c) == parents(1, n - coarse%nnode) .or. &
+                 coarse%tri(:, c) == parents(2, n - coarse%nnode)) bary = 0.5_dp
+        end if
+        q = equilibrium_field_xy(xy, beta, bary)
+        x_fine(2 * (e - 1) + j) = dot_product(q, nu)
+      end do
+    end do
+  end subroutine equilibrium_prolongate_bisection
 end module dualsig_assembly_equilibrium

@@ -36,7 +36,7 @@ module dualsig_mesh_adapt
   private
 
   public :: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler, mesh_label_longest_edge
-  public :: mesh_bisection_origin
+  public :: mesh_bisection_origin, mesh_bisection_ancestor
 
 contains
 
@@ -265,6 +265,48 @@ contains
       same_vertices = all([any(b == a(1)), any(b == a(2)), any(b == a(3))])
     end function same_vertices
   end subroutine mesh_bisection_origin
+
+  !> The coarse triangle every triangle of the refined mesh fine (mesh_refine_marked of
+  !> coarse, parents its new nodes' edge ends) lies in: ancestor(t).  The children of a coarse
+  !> triangle are consecutive and in the coarse order (bisect_triangles); a fine triangle
+  !> belongs to coarse triangle c exactly when each of its vertices is a vertex of c or the
+  !> midpoint of two of them (then it lies in c, and a non-degenerate triangle in c lies in
+  !> no other).  ok = .false. (ancestor all 0) when the lists do not match so.
+  pure subroutine mesh_bisection_ancestor(coarse, fine, parents, ancestor, ok)
+    type(mesh_t), intent(in) :: coarse, fine
+    integer, intent(in) :: parents(:,:)
+    integer, intent(out) :: ancestor(:)          !! (fine%ntri)
+    logical, intent(out) :: ok
+    integer :: c, t, k, n
+    logical :: inside
+    ancestor = 0
+    ok = .false.
+    if (size(ancestor) /= fine%ntri .or. fine%nnode - coarse%nnode /= size(parents, 2)) return
+    t = 1
+    do c = 1, coarse%ntri
+      do while (t <= fine%ntri)
+        inside = .true.
+        do k = 1, 3
+          n = fine%tri(k, t)
+          if (n <= coarse%nnode) then
+            inside = inside .and. any(coarse%tri(:, c) == n)
+          else
+            inside = inside .and. any(coarse%tri(:, c) == parents(1, n - coarse%nnode)) .and. &
+                     any(coarse%tri(:, c) == parents(2, n - coarse%nnode))
+          end if
+        end do
+        if (.not. inside) exit
+        ancestor(t) = c
+        t = t + 1
+      end do
+      if (t == 1 .or. ancestor(max(t - 1, 1)) /= c) then    ! coarse triangle c has no child here
+        ancestor = 0
+        return
+      end if
+    end do
+    ok = t == fine%ntri + 1
+    if (.not. ok) ancestor = 0
+  end subroutine mesh_bisection_ancestor
 
   !> P1 transfer to the mesh of mesh_refine_marked: coarse values copied, a midpoint gets
   !> the mean of its edge's end values (exact: the coarse function is linear on the edge).

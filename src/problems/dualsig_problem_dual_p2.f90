@@ -136,7 +136,7 @@ contains
   !> (lambda . nu u = 0 on Gamma_a) the dual constraint is predicted active where u > 0,
   !> which starts the active-set method near its solution.
   subroutine dual_p2_solve(mesh, f, is_gamma_a, x_start, settings, field, res, st, breaks, u_primal, load, mg, psi, &
-                           active_set)
+                           active_set, flux_f)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     logical, intent(in) :: is_gamma_a(:)
@@ -155,6 +155,11 @@ contains
     !> 'multigrid': the active set on Gamma_a, on entry the start (the previous level's,
     !> stream_prolongate_set), on return the final one
     integer, allocatable, intent(inout), optional :: active_set(:,:)
+    !> polynomial lambda^f: on entry, when of this mesh's size (2 nedge), the start of its
+    !> fluxes (the last adaptive step's lambda^f, equilibrium_prolongate_bisection), which
+    !> keeps lambda^f and with it the carried psi close to the last step's; on return this
+    !> level's lambda^f fluxes (particular_polynomial)
+    real(dp), allocatable, intent(inout), optional :: flux_f(:)
     type(equilibrium_map_t) :: map
     real(dp), allocatable :: ae(:,:,:), c(:,:,:), d(:,:), be(:,:), bx(:), x(:), bnd(:), y(:), z(:), e(:), gh(:,:)
     logical, allocatable :: on_gamma_a(:)
@@ -185,7 +190,7 @@ contains
     res%seconds_elements = lap(t0)
     select case (trim(settings%particular))
     case ('polynomial')
-      call particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load)
+      call particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load, flux_f)
       if (.not. is_ok(st)) return
       res%seconds_particular = lap(t0)
       allocate (gh(2, mesh%nbedge), stat=ist)
@@ -340,7 +345,11 @@ contains
   !> div = -g_T . (x - x_T); and the element loads b_e = -A_e beta_f - C_e^T int sigma . Phi
   !> of (4.7), exact ((lambda^f, q) = beta_f^T A_e beta for fields of the same element; the
   !> bubble part is a cubic, integrated by the degree-5 rule).
-  subroutine particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load)
+  !> flux_f (optional): on entry, when of size 2 nedge, the fluxes the equilibration starts
+  !> from instead of zero (any start gives an admissible lambda^f; a start close to the last
+  !> adaptive step's lambda^f keeps the new one close to it); on return the fluxes of this
+  !> lambda^f.
+  subroutine particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load, flux_f)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(equilibrium_map_t), intent(in) :: map
@@ -351,6 +360,7 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)
     type(load_data_t), intent(in), optional :: load
+    real(dp), allocatable, intent(inout), optional :: flux_f(:)
     type(load_data_t) :: own
     real(dp), allocatable :: xf(:), target(:), slope(:,:), lam(:,:)
     real(dp) :: xy(2, 3), c(6, 6), ae(6, 6)
@@ -369,12 +379,18 @@ contains
     allocate (xf(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the particular fluxes', 2 * mesh%nedge, BYTES_REAL)) return
     xf = 0.0_dp
+    if (present(flux_f)) then
+      if (allocated(flux_f)) then
+        if (size(flux_f) == size(xf)) xf = flux_f
+      end if
+    end if
     call equilibrate_divergence(mesh, map, d, is_gamma_a, xf, st, target)
     if (.not. is_ok(st)) return
     field%polynomial = .true.
     allocate (field%beta_f(6, mesh%ntri), field%bubble(3, mesh%ntri), be(6, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the particular field', 15 * mesh%ntri, BYTES_REAL)) return
     call equilibrium_to_local(map, xf, field%beta_f)
+    if (present(flux_f)) call move_alloc(xf, flux_f)
     rule = tri_rule(bubble_load_degree)
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
