@@ -310,8 +310,8 @@ module dualsig_analysis
     !> P2 dual 'multigrid': the last level's stream function, prolongated by a uniform refinement
     real(dp), allocatable :: psi(:)
     integer, allocatable :: psi_set(:,:)     !! and its active set on Gamma_a (2, nbedge)
-    !> P2 dual, adaptive: the last step's polynomial lambda^f (global edge-end fluxes), carried
-    !> to the bisection: the start of the next step's lambda^f, so that psi stays a close start
+    !> P2 dual: the last level's polynomial lambda^f (global edge-end fluxes), carried to the
+    !> refinement (bisection or uniform): the start of the next lambda^f, so psi stays a close start
     real(dp), allocatable :: flux_f(:)
     real(dp) :: prolong_seconds = 0.0_dp    !! wall time of that prolongation (part of the dual's cost)
     real(dp) :: t_start = 0.0_dp            !! wall clock at analysis_start
@@ -439,6 +439,7 @@ contains
     type(status_t), intent(out) :: st
     type(mesh_t) :: finer
     real(dp), allocatable :: u_next(:)
+    integer, allocatable :: parents(:,:)
     real(dp) :: t0
     integer :: ist
     t0 = wall_seconds()
@@ -459,6 +460,10 @@ contains
         if (.not. is_ok(st)) return
       end if
       if (allocated(an%psi)) call prolongate_psi(an, finer, st)
+      if (allocated(an%flux_f) .and. is_ok(st)) then   ! new node nnode + e: the midpoint of edge e
+        parents = an%mesh%edge_nodes
+        call prolongate_flux_bisection(an, finer, parents, st)
+      end if
       if (.not. is_ok(st)) return
       call mesh_move(finer, an%mesh)
       call phase_event(an, an%level + 1, 'refine', .true., wall_seconds() - t0)
@@ -784,9 +789,9 @@ contains
     if (st_carry%code == DS_ERR_MEMORY) st = st_carry
   end subroutine prolongate_psi_bisection
 
-  !> The last adaptive step's polynomial lambda^f (an%flux_f) as a field of the bisection
-  !> `finer` (equilibrium_prolongate_bisection, exact): the start of the next step's
-  !> lambda^f.  The equilibration then moves only the change of the load means, which sums to
+  !> The last level's polynomial lambda^f (an%flux_f) as a field of the refinement `finer`,
+  !> a bisection or the uniform refinement (parents: the coarse node pair of every new node;
+  !> equilibrium_prolongate_bisection, exact): the start of the next level's lambda^f.  The equilibration then moves only the change of the load means, which sums to
   !> zero over every bisected triangle, so the new lambda^f stays close to the old and the
   !> carried psi stays a close start (rebuilt from zero, lambda^f changed by O(1) every step,
   !> and the stream function's first CG step removed 2.7 of J where the share asked 1e-9).
@@ -1269,8 +1274,6 @@ contains
         call dual_p2_solve(mesh, pb%f, is_gamma_a, minval(mesh%xy(1, :)), dset, field, res%dual_p2, st_dual, &
                            u_primal=an%u, load=load, mg=an%mg, psi=an%psi, active_set=an%psi_set, flux_f=an%flux_f)
       end if
-      ! lambda^f is carried across adaptive steps only (a uniform level starts its own)
-      if (.not. an%settings%adapt%enabled .and. allocated(an%flux_f)) deallocate (an%flux_f)
     end associate
   end subroutine solve_p2_field
 

@@ -271,7 +271,8 @@ contains
   !> triangle are consecutive and in the coarse order (bisect_triangles); a fine triangle
   !> belongs to coarse triangle c exactly when each of its vertices is a vertex of c or the
   !> midpoint of two of them (then it lies in c, and a non-degenerate triangle in c lies in
-  !> no other).  ok = .false. (ancestor all 0) when the lists do not match so.
+  !> no other).  ok = .false. (ancestor all 0) when the lists do not match so.  The same holds
+  !> for mesh_refine_uniform (four children per coarse triangle, parents = coarse%edge_nodes).
   pure subroutine mesh_bisection_ancestor(coarse, fine, parents, ancestor, ok)
     type(mesh_t), intent(in) :: coarse, fine
     integer, intent(in) :: parents(:,:)

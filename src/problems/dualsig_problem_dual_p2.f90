@@ -156,7 +156,7 @@ contains
     !> stream_prolongate_set), on return the final one
     integer, allocatable, intent(inout), optional :: active_set(:,:)
     !> polynomial lambda^f: on entry, when of this mesh's size (2 nedge), the start of its
-    !> fluxes (the last adaptive step's lambda^f, equilibrium_prolongate_bisection), which
+    !> fluxes (the last level's lambda^f, equilibrium_prolongate_bisection), which
     !> keeps lambda^f and with it the carried psi close to the last step's; on return this
     !> level's lambda^f fluxes (particular_polynomial)
     real(dp), allocatable, intent(inout), optional :: flux_f(:)
@@ -347,7 +347,7 @@ contains
   !> bubble part is a cubic, integrated by the degree-5 rule).
   !> flux_f (optional): on entry, when of size 2 nedge, the fluxes the equilibration starts
   !> from instead of zero (any start gives an admissible lambda^f; a start close to the last
-  !> adaptive step's lambda^f keeps the new one close to it); on return the fluxes of this
+  !> level's lambda^f keeps the new one close to it); on return the fluxes of this
   !> lambda^f.
   subroutine particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load, flux_f)
     type(mesh_t), intent(in) :: mesh
