@@ -791,9 +791,10 @@ contains
 
   !> The last level's polynomial lambda^f (an%flux_f) as a field of the refinement `finer`,
   !> a bisection or the uniform refinement (parents: the coarse node pair of every new node;
-  !> equilibrium_prolongate_bisection, exact): the start of the next level's lambda^f.  The equilibration then moves only the change of the load means, which sums to
-  !> zero over every bisected triangle, so the new lambda^f stays close to the old and the
-  !> carried psi stays a close start (rebuilt from zero, lambda^f changed by O(1) every step,
+  !> equilibrium_prolongate_bisection, exact): the start of the next level's lambda^f.  The
+  !> equilibration then moves only the change of the load means, which sums to zero over
+  !> every refined triangle, so the new lambda^f stays close to the old and the carried psi
+  !> stays a close start (rebuilt from zero, lambda^f changed by O(1) every step,
   !> and the stream function's first CG step removed 2.7 of J where the share asked 1e-9).
   !> Dropped when it cannot be carried (the next step's lambda^f starts from zero); only
   !> running out of memory stops the step.

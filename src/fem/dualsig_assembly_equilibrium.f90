@@ -19,7 +19,7 @@ module dualsig_assembly_equilibrium
   use dualsig_sparse, only: csr_t, rect_t, csr_pattern_from_cliques, csr_add_block, rect_from_triplets
   use dualsig_elements_equilibrium, only: param_side, param_vertex, equilibrium_c_matrix, &
                                           equilibrium_element_matrix, equilibrium_div_row, &
-                                          equilibrium_field_xy
+                                          equilibrium_field_xy, equilibrium_sides
   use dualsig_qp_types, only: ROW_EQUALITY, ROW_INEQUALITY
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
   use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
@@ -273,8 +273,8 @@ contains
     real(dp), allocatable, intent(out) :: x_fine(:)
     type(status_t), intent(out) :: st
     type(equilibrium_map_t) :: map
-    real(dp) :: xy(2, 3), beta(6), d(2), nu(2), bary(3), q(2)
-    integer :: e, t, c, j, k, n, ist
+    real(dp) :: xy(2, 3), beta(6), nus(2, 3), ls(3), nu(2), bary(3), q(2)
+    integer :: e, t, c, j, n, ist
     if (size(x_coarse) /= 2 * coarse%nedge .or. size(ancestor) /= fine%ntri .or. &
         size(parents, 2) /= fine%nnode - coarse%nnode) then
       call set_error(st, DS_ERR_INPUT, 'equilibrium_prolongate_bisection: the fluxes, ancestors or parents ' // &
@@ -295,10 +295,9 @@ contains
       c = ancestor(t)
       xy = coarse%xy(:, coarse%tri(:, c))
       beta = map%sgn(:, c) * x_coarse(map%dof(:, c))
-      ! n_e: the outward normal of t on e (the side of t from its vertex k to k + 1)
-      k = findloc(fine%tri_edge(:, t), e, dim=1)
-      d = fine%xy(:, fine%tri(mod(k, 3) + 1, t)) - fine%xy(:, fine%tri(k, t))
-      nu = [d(2), -d(1)] / sqrt(d(1)**2 + d(2)**2)
+      ! n_e: the outward normal of t on e, its local side k
+      call equilibrium_sides(fine%xy(:, fine%tri(:, t)), nus, ls)
+      nu = nus(:, findloc(fine%tri_edge(:, t), e, dim=1))
       do j = 1, 2
         n = fine%edge_nodes(j, e)
         bary = 0.0_dp
