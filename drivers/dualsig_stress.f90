@@ -647,7 +647,8 @@ contains
       none%conv = pres%converged
       call add_row('iter_limit_psor', 'PSOR max_iter = 10', none, .not. pres%converged .and. &
         st%code == DS_WARN_NOT_CONVERGED .and. all_finite(u), 'DS_WARN_NOT_CONVERGED: ' // trim(msg_of(st)))
-      ! iteration limit of the active set: the projected-SOR fallback, with a warning
+      ! iteration limit of the active set: the projected-SOR fallback; a warning only when
+      ! the fallback did not converge either
       block
         type(active_set_settings_t) :: aset
         type(active_set_result_t) :: ares
@@ -657,8 +658,8 @@ contains
         none%iters = ares%iterations
         none%kkt = ares%kkt_residual
         none%conv = ares%converged .and. st%code == DS_OK
-        call add_row('iter_limit_active_set', 'active set max_iter = 1', none, st%code == DS_WARN_NOT_CONVERGED &
-          .and. ares%fallback .and. all_finite(u), 'warning: ' // trim(msg_of(st)))
+        call add_row('iter_limit_active_set', 'active set max_iter = 1', none, ares%fallback .and. &
+          (ares%converged .eqv. st%code == DS_OK) .and. all_finite(u), 'fallback: ' // trim(msg_of(st)))
       end block
     end block
     call rho_cases(mesh)

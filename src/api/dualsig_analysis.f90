@@ -301,6 +301,7 @@ module dualsig_analysis
     type(analysis_settings_t) :: settings
     type(mesh_t) :: mesh                    !! the mesh of the current level
     integer :: level = 0                    !! levels done
+    logical :: started = .false.            !! analysis_start succeeded (analysis_free clears it)
     real(dp), allocatable :: u(:)           !! u_h of the current level
     real(dp), allocatable :: u_start(:)     !! start of level 1 (optional)
     character(len=16) :: dual_method = ''   !! resolved dual method
@@ -428,6 +429,7 @@ contains
       an%bound_rule_p1 = tri_rule(bound_degree_p1)
       an%bound_rule_p2 = tri_rule(bound_degree_p2)
     end if
+    an%started = .true.
   end subroutine analysis_start
 
   !> The next level: the coarse mesh on the first call, then one uniform refinement of the
@@ -443,6 +445,11 @@ contains
     real(dp) :: t0
     integer :: ist
     t0 = wall_seconds()
+    if (.not. an%started) then
+      call set_error(st, DS_ERR_INPUT, 'analysis_next_level: the analysis was not started (call analysis_start ' // &
+        'first; after analysis_free, start it again)')
+      return
+    end if
     if (an%level > 0) then
       call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
       if (allocated(an%mesh%edge_nodes)) call mesh_ensure_adjacency(an%mesh, st)
@@ -511,7 +518,7 @@ contains
     real(dp), allocatable :: u_next(:), eta2(:)
     real(dp) :: t0, floor
     integer :: t, ist
-    if (an%level == 0) then
+    if (an%level == 0 .or. .not. an%started) then     ! (not started: analysis_next_level says so)
       call analysis_next_level(an, res, st)
       if (is_ok(st)) res%max_depth = 0
       return

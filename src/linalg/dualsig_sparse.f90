@@ -305,17 +305,28 @@ contains
     end do
   end subroutine csr_matvec
 
-  !> True when |a(i,j) - a(j,i)| <= tol * max|a| for every stored entry.
+  !> True when |a(i,j) - a(j,i)| <= tol * sqrt(|a(i,i) a(j,j)|) for every stored entry:
+  !> relative to the scale of the 2 x 2 principal block of i and j (|a(i,j)| is below it
+  !> for an SPD matrix), so one large entry elsewhere (a penalty diagonal) does not hide an
+  !> unsymmetric pair.  Where a diagonal entry is missing or zero, max|a| is the scale.
   pure logical function csr_is_symmetric(a, tol) result(sym)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: tol
-    integer :: i, p
-    real(dp) :: scale
-    scale = maxval(abs(a%val))
+    integer :: i, j, p
+    real(dp) :: scale_max, scale
+    scale_max = maxval(abs(a%val))
     sym = .true.
     do i = 1, a%n
       do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        if (abs(a%val(p) - csr_get(a, a%col(p), i)) > tol * scale) then
+        j = a%col(p)
+        scale = scale_max
+        if (.not. allocated(a%diag)) then
+          continue
+        else if (a%diag(i) > 0 .and. a%diag(j) > 0) then
+          scale = sqrt(abs(a%val(a%diag(i)))) * sqrt(abs(a%val(a%diag(j))))
+        end if
+        if (.not. scale > 0.0_dp) scale = scale_max
+        if (abs(a%val(p) - csr_get(a, j, i)) > tol * scale) then
           sym = .false.
           return
         end if

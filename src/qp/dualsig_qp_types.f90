@@ -16,7 +16,7 @@ module dualsig_qp_types
   private
 
   public :: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, ROW_EQUALITY, ROW_INEQUALITY
-  public :: kkt_residual
+  public :: kkt_residual, kkt_scale, norm_acc_t, norm_acc_add, norm_acc_value, norm_acc_ratio
 
   integer, parameter :: BOUND_FREE = 0       !! unconstrained unknown
   integer, parameter :: BOUND_LOWER = 1      !! x_i >= bnd(i)
@@ -24,15 +24,22 @@ module dualsig_qp_types
   integer, parameter :: ROW_EQUALITY = 0     !! (B y)_k = e_k, free multiplier
   integer, parameter :: ROW_INEQUALITY = 1   !! (B y)_k >= e_k, multiplier >= 0
 
+  !> A sum of squares scale^2 ssq accumulated without overflow or underflow (norm_acc_add).
+  type :: norm_acc_t
+    real(dp) :: scale = 0.0_dp
+    real(dp) :: ssq = 1.0_dp
+  end type norm_acc_t
+
 contains
 
-  !> Relative KKT residual || r ||_2 / || F ||_2 over the unknowns that are not fixed,
-  !> where g = A x - F and
+  !> Relative KKT residual || r ||_2 / d over the unknowns that are not fixed, where
+  !> g = A x - F and
   !>     r_i = g_i                           for free unknowns,
   !>     r_i = min(g_i, A_ii (x_i - bnd_i))  for lower-bounded unknowns
   !> (the natural residual of the diagonally scaled problem: zero exactly at the KKT
-  !> point, in the units of F, hence invariant under scaling of F, A and x).
-  !> When F vanishes on the unknowns that are not fixed the absolute norm is returned.
+  !> point, in the units of F) and d = kkt_scale(a, f, kind, bnd), the size of the data of
+  !> the problem in the same units; so the ratio is invariant under scaling of F, A and x.
+  !> Both norms are accumulated with scaling (no overflow or underflow of the squares).
   !> `work` (size n) is scratch space.
   real(dp) function kkt_residual(a, f, kind, bnd, x, work) result(rel)
     type(csr_t), intent(in) :: a
@@ -41,11 +48,10 @@ contains
     real(dp), intent(in) :: bnd(:)
     real(dp), intent(in) :: x(:)
     real(dp), intent(inout) :: work(:)
-    real(dp) :: num, den, r
+    type(norm_acc_t) :: num
+    real(dp) :: r
     integer :: i
     call csr_matvec(a, x, work)
-    num = 0.0_dp
-    den = 0.0_dp
     do i = 1, a%n
       select case (kind(i))
       case (BOUND_FREE)
@@ -55,13 +61,69 @@ contains
       case default
         cycle
       end select
-      num = num + r * r
-      den = den + f(i) * f(i)
+      call norm_acc_add(num, r)
     end do
-    if (den > 0.0_dp) then
-      rel = sqrt(num / den)
-    else
-      rel = sqrt(num)
-    end if
+    rel = norm_acc_ratio(num, kkt_scale(a, f, kind, bnd))
   end function kkt_residual
+
+  !> The size of the data of a bound-constrained QP, the denominator of kkt_residual:
+  !> d = || (F_eff, D bnd_L) ||_2, with F_eff = F - A_{.,X} bnd_X on the unknowns that are
+  !> not fixed (X: the fixed ones; the load their values put on their neighbours) and
+  !> D bnd_L = A_ii bnd_i on the lower-bounded ones.  d = 0 only when the solution is x = 0
+  !> on the unknowns that are not fixed; kkt_residual is then the absolute ||r||.  Without
+  !> F_eff a problem driven by fixed values alone (F = 0) would be measured in the units of A.
+  real(dp) function kkt_scale(a, f, kind, bnd) result(d)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    type(norm_acc_t) :: acc
+    real(dp) :: s
+    integer :: i, p
+    do i = 1, a%n
+      if (kind(i) == BOUND_FIXED) cycle
+      s = f(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        if (kind(a%col(p)) == BOUND_FIXED) s = s - a%val(p) * bnd(a%col(p))
+      end do
+      call norm_acc_add(acc, s)
+      if (kind(i) == BOUND_LOWER) call norm_acc_add(acc, a%val(a%diag(i)) * bnd(i))
+    end do
+    d = norm_acc_value(acc)
+  end function kkt_scale
+
+  !> Add v^2 to the sum of squares acc (kept as scale^2 ssq, as LAPACK's dlassq).
+  pure subroutine norm_acc_add(acc, v)
+    type(norm_acc_t), intent(inout) :: acc
+    real(dp), intent(in) :: v
+    real(dp) :: av
+    av = abs(v)
+    if (.not. av > 0.0_dp) then
+      if (av /= av) acc%ssq = av                 ! NaN propagates
+      return
+    end if
+    if (acc%scale < av) then
+      acc%ssq = 1.0_dp + acc%ssq * (acc%scale / av)**2
+      acc%scale = av
+    else
+      acc%ssq = acc%ssq + (av / acc%scale)**2
+    end if
+  end subroutine norm_acc_add
+
+  !> sqrt of the sum of squares in acc.
+  pure real(dp) function norm_acc_value(acc) result(v)
+    type(norm_acc_t), intent(in) :: acc
+    v = acc%scale * sqrt(acc%ssq)
+  end function norm_acc_value
+
+  !> sqrt(acc) / d without overflow or underflow of the norm (d = 0: sqrt(acc)).
+  pure real(dp) function norm_acc_ratio(acc, d) result(ratio)
+    type(norm_acc_t), intent(in) :: acc
+    real(dp), intent(in) :: d
+    if (d > 0.0_dp) then
+      ratio = (acc%scale / d) * sqrt(acc%ssq)
+    else
+      ratio = norm_acc_value(acc)
+    end if
+  end function norm_acc_ratio
 end module dualsig_qp_types

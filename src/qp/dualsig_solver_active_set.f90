@@ -350,18 +350,26 @@ contains
     res%factorisations = res%factorisations + 1
   end subroutine factor_reduced
 
-  !> Three small hashes of a set (count, sum of indices, sum of squares mod a prime).
+  !> Three hashes of a set S: its size and sum_{j in S} g_k^j mod p_k for two primes p_k
+  !> near 2^31 (g_k of large order).  Unlike sums of j and j^2, which distinct sets share
+  !> ({1, 5, 6} and {2, 3, 7}, and every shift of them), g^j is not a polynomial in j, so
+  !> two distinct sets agree in both sums by chance only: about once in p_1 p_2 = 4.6e18
+  !> (for the history_len sets compared per step).  A false cycle ends the active-set
+  !> method early (projected SOR then finishes).
   pure function set_hash(s) result(h)
     logical, intent(in) :: s(:)
     integer(i8) :: h(3)
+    integer(i8), parameter :: p(2) = [2147483647_i8, 2147483629_i8]
+    integer(i8), parameter :: g(2) = [16807_i8, 48271_i8]
+    integer(i8) :: gj(2)
     integer :: j
-    integer(i8), parameter :: prime = 2147483647_i8
     h = 0
+    gj = 1
     do j = 1, size(s)
+      gj = mod(gj * g, p)                ! g^j mod p (products < 2^47)
       if (.not. s(j)) cycle
       h(1) = h(1) + 1
-      h(2) = h(2) + j
-      h(3) = mod(h(3) + mod(int(j, i8) * int(j, i8), prime), prime)
+      h(2:3) = mod(h(2:3) + gj, p)
     end do
   end function set_hash
 
@@ -406,10 +414,11 @@ contains
     ps%max_iter = settings%fallback_max_iter
     call psor_solve(a, f, kind, bnd, x, ps, pr, st)
     res%converged = pr%converged
-    if (is_ok(st)) call set_warning(st, DS_WARN_NOT_CONVERGED, 'active set: ' // &
+    ! a converged fallback is a converged solve (res%fallback tells it was needed); only a
+    ! fallback that stopped at its limit is a warning (callers map it to "limit reached")
+    if (is_ok(st) .and. .not. pr%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'active set: ' // &
       trim(merge('cycle detected     ', 'iteration limit hit', cycled)) // ' after ' // itoa(res%iterations) // &
-      ' iterations; projected SOR fallback, ' // itoa(pr%iterations) // ' sweeps, ' // &
-      trim(merge('converged    ', 'not converged', pr%converged)))
+      ' iterations; projected SOR fallback, ' // itoa(pr%iterations) // ' sweeps, not converged')
   end subroutine fall_back
 
   !> ar = M(held): the values of a with identity rows and columns for the held unknowns.

@@ -51,7 +51,8 @@ module dualsig_solver_multigrid
                                      amg_coarsest_max
   use dualsig_sparse_direct, only: cholesky_t, cholesky_factor, cholesky_refactor, cholesky_solve, &
                                   cholesky_free, ORDERING_AMD
-  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual, kkt_scale, norm_acc_t, &
+                              norm_acc_add, norm_acc_value
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   use dualsig_strings, only: itoa
@@ -476,7 +477,7 @@ contains
     end if
     where (kind == BOUND_FIXED) x = bnd
     where (kind == BOUND_LOWER) x = max(x, bnd)
-    den = sqrt(sum(f**2, mask=kind /= BOUND_FIXED))
+    den = kkt_scale(a, f, kind, bnd)
     if (settings%krylov .and. all(kind == BOUND_FREE)) then
       frozen = .false.
       call galerkin_all(h, a, frozen, st)
@@ -524,7 +525,8 @@ contains
   end subroutine multigrid_solve
 
   !> A x = f (no bounds) by conjugate gradients from x, preconditioned by one symmetric
-  !> V-cycle (pcg_vcycle), for multigrid_solve with settings%krylov; den = ||f||.  A V-cycle
+  !> V-cycle (pcg_vcycle), for multigrid_solve with settings%krylov; den = kkt_scale, the
+  !> size of the data.  A V-cycle
   !> that contracts the energy error by q per cycle makes a condition number of about
   !> (1 + sqrt q) / (1 - sqrt q) for CG, whose rate sqrt(kappa) - 1 / (sqrt(kappa) + 1) is
   !> well below sqrt q when q is not small (the aggregation grids of an adaptive step: q about
@@ -601,7 +603,7 @@ contains
   !> ||r|| / den (den = 0: ||r||).
   pure real(dp) function norm_ratio(r, den) result(ratio)
     real(dp), intent(in) :: r(:), den
-    ratio = sqrt(sum(r**2))
+    ratio = norm2(r)
     if (den > 0.0_dp) ratio = ratio / den
   end function norm_ratio
 
@@ -801,9 +803,9 @@ contains
     logical, intent(out) :: frozen(:)
     real(dp), intent(out) :: kkt
     integer, intent(out) :: nchanged
-    real(dp) :: num, g, s
+    type(norm_acc_t) :: num
+    real(dp) :: g, s
     integer :: i, p
-    num = 0.0_dp
     nchanged = 0
     do i = 1, a%n
       s = f(i)
@@ -822,10 +824,10 @@ contains
         g = 0.0_dp
         frozen(i) = .true.
       end select
-      num = num + g * g
+      call norm_acc_add(num, g)
       if (frozen(i) .neqv. frozen_prev(i)) nchanged = nchanged + 1
     end do
-    kkt = sqrt(num)
+    kkt = norm_acc_value(num)
   end subroutine residual_kkt
 
   !> The coarse operators' patterns and the vectors of grids 1..L-1 (once per hierarchy).
