@@ -143,9 +143,8 @@ contains
       budget = load_max_pieces
       call adapt(local, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
       if (.not. all(ieee_is_finite(s))) then
-        call set_error(st, DS_ERR_INPUT, 'load data: the integrals of f, x f or f^2 are not finite in triangle ' // &
-          itoa(t) // ' (centroid ' // rtoa_pair(centroid) // '): f is not finite there, or so large that f^2 ' // &
-          'overflows (|f| above about 1e154; rescale the problem)')
+        call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
+          rtoa_pair(centroid) // '), or f^2 overflows there (|f| above about 1e154: rescale the problem)')
         return
       end if
       data%mean(t) = s(1) / area
