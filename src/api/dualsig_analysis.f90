@@ -19,9 +19,10 @@ module dualsig_analysis
   use dualsig_clock, only: wall_seconds
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_status, only: status_t, set_error, is_ok, is_warning, is_error, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
-                            DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC, DS_ERR_MEMORY
+                            DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC, DS_ERR_MEMORY, set_warning
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
+  use dualsig_exact_boundary, only: exact_boundary_check
   use dualsig_kinds, only: geom_rel_tol
   use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_triangle_area, mesh_move, mesh_release_adjacency, &
                           mesh_ensure_adjacency
@@ -89,6 +90,9 @@ module dualsig_analysis
   !> Warnings a level can carry (primal limit, dual limit, dual not admissible).
   integer, parameter :: max_level_warnings = 3
 
+  !> Smallest est and energy_hi that are certified (check_representable_bounds): below it an
+  !> error of relative size epsilon is below the smallest normal number.
+  real(dp), parameter :: representable_floor = tiny(1.0_dp) / epsilon(1.0_dp)
   !> Why an adaptive loop stops (analysis_adapt_stop): not yet; the certified relative error
   !> reached tol; max_ndof unknowns reached; the next step would end after max_seconds; the
   !> largest number of steps (adapt_max_steps, the two digits of the .vtu names).
@@ -341,6 +345,8 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: u_start(:)
     character(len=:), allocatable :: method
+    integer, allocatable :: kinds(:)
+    real(dp), allocatable :: bnds(:)
     if (problem%kind /= PROBLEM_P1 .and. problem%kind /= PROBLEM_P2) then
       call set_error(st, DS_ERR_INPUT, 'analysis: problem kind ' // itoa(problem%kind) // ' (expected 1 = P1 or 2 = P2)')
       return
@@ -366,6 +372,14 @@ contains
       if (.not. settings%dual .or. .not. settings%bounds) then
         call set_error(st, DS_ERR_INPUT, 'analysis: adaptive refinement needs the dual analysis with its ' // &
           'bounds (the element indicators of est)')
+        return
+      end if
+      ! tol is met by a certified step only, and this particular field is never certified
+      if (settings%adapt%tol > 0.0_dp .and. problem%kind /= PROBLEM_P1 .and. &
+          settings%dual_particular == 'stream') then
+        call set_error(st, DS_ERR_INPUT, "analysis: &adapt tol needs certified steps, and with &dual particular " // &
+          "= 'stream' no step is certified (its bounds rest on quadrature); expected particular = 'polynomial' " // &
+          "(the default) or tol = 0 with max_ndof or max_seconds")
         return
       end if
       if (settings%adapt%max_steps < 1 .or. settings%adapt%max_steps > adapt_max_steps) then
@@ -404,6 +418,17 @@ contains
           "' (expected 'hdiv' or 'paper')")
         return
       end if
+    end if
+    if (allocated(problem%u_exact) .and. allocated(problem%grad_exact) .and. allocated(problem%gamma_u) .and. &
+        allocated(problem%gamma_a) .and. allocated(problem%mesh%loop_start) .and. &
+        allocated(problem%mesh%bedge_marker)) then
+      ! the boundary parts themselves first (the message each level would give), then u_exact on them
+      call primal_constraints(problem%mesh, problem%kind, problem%gamma_u, problem%gamma_a, kinds, bnds, st, &
+                              every_loop_gamma_u=settings%dual .and. problem%kind /= PROBLEM_P1)
+      if (.not. is_ok(st)) return
+      call exact_boundary_check(problem%mesh, problem%kind, problem%gamma_u, problem%u_exact, problem%grad_exact, &
+                                'analysis: the exact solution', st)
+      if (.not. is_ok(st)) return
     end if
     if (present(u_start)) then
       if (size(u_start) /= problem%mesh%nnode) then
@@ -910,8 +935,28 @@ contains
         if (is_ok(st)) call phase_event(an, an%level, 'dual analysis', .true., res%estimate_seconds)
       end if
       if (is_ok(st)) call check_finite_results(an%level, res, st)
+      if (is_ok(st)) call check_representable_bounds(an, res)
     end associate
   end subroutine solve_level
+
+  !> A level whose bounds fell below the range where double precision keeps its digits is
+  !> not certified: est and energy_hi must be at least representable_floor (or est exactly 0)
+  !> when u_h is not 0.  Both are quadratic in the data, so |f| of 1e-150 or less (or a
+  !> domain scaled far from 1) puts them there, and their subnormal or underflowed values
+  !> (eff < 1 and "certified" zero bounds were seen at |f| = 1e-160 and 1e-200) are no bounds.
+  subroutine check_representable_bounds(an, res)
+    type(analysis_t), intent(in) :: an
+    type(level_result_t), intent(inout) :: res
+    if (.not. (res%has_dual .and. res%certified)) return
+    if (.not. allocated(an%u)) return
+    if (all(an%u == 0.0_dp)) return                 ! the zero problem: 0 bounds are exact
+    if (res%energy_hi >= representable_floor .and. (res%est == 0.0_dp .or. res%est >= representable_floor)) return
+    res%certified = .false.
+    call add_warning(res, DS_WARN_NOT_CERTIFIED, 'est = ' // rtoa(res%est) // ' and energy_hi = ' // &
+      rtoa(res%energy_hi) // ' are below ' // rtoa(representable_floor) // ', where double precision loses ' // &
+      'digits: the bounds are NOT certified (expected a problem scaled to moderate sizes: the bounds scale ' // &
+      'with the square of f)')
+  end subroutine check_representable_bounds
 
   !> Report the start or the end of a phase to the settings' progress callback, if any.
   subroutine phase_event(an, level, phase, finished, seconds)
@@ -1047,6 +1092,10 @@ contains
     res%primal_iters = bres%qp_iterations
     res%primal_factorisations = bres%factorisations
     res%kkt_residual = bres%kkt_residual
+    ! the pivoting limit reached: reported as every solver's limit (never called converged)
+    if (is_ok(st_solve) .and. .not. bres%converged) call set_warning(st_solve, DS_WARN_NOT_CONVERGED, &
+      'schur: the QP on the bounded unknowns stopped at its limit of ' // itoa(bset%qp%max_iter) // &
+      ' pivoting steps (&solver max_iter), KKT residual ' // rtoa(bres%kkt_residual) // ' > tol')
   end subroutine solve_primal_schur
 
   !> The primal QP by truncated nonsmooth Newton multigrid (dualsig_solver_multigrid) on the
@@ -1259,9 +1308,16 @@ contains
     if (allocated(an%tri_origin)) deallocate (an%tri_origin)
     if (.not. is_ok(st)) return
     res%load_unresolved = load%nunconverged
-    if (load%nunconverged > 0) call add_warning(res, DS_WARN_NOT_CERTIFIED, &
-      'the integrals of f did not converge on ' // itoa(load%nunconverged) // ' triangle(s) (f jumps or ' // &
-      'varies below the resolution of the cubature): the bounds are NOT certified')
+    if (load%nunconverged > 0 .and. load%budget_spent) then
+      call add_warning(res, DS_WARN_NOT_CERTIFIED, 'the integrals of f did not converge on ' // &
+        itoa(load%nunconverged) // ' triangle(s): the cubature spent its budget of evaluations (f varies on ' // &
+        'the scale of the triangles or below; a finer mesh, more &mesh levels, may certify it): ' // &
+        'the bounds are NOT certified')
+    else if (load%nunconverged > 0) then
+      call add_warning(res, DS_WARN_NOT_CERTIFIED, 'the integrals of f did not converge on ' // &
+        itoa(load%nunconverged) // ' triangle(s) (f jumps or varies below the resolution of the cubature): ' // &
+        'the bounds are NOT certified')
+    end if
   end subroutine level_load_data
 
   !> The P2 dual field of the level by dual_p2_solve with the settings dset (the kinks of f

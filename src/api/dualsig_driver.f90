@@ -33,7 +33,7 @@ module dualsig_driver
                               analysis_adapt_stop, adapt_stop_text, certified_rel_error, ADAPT_GOING, &
                               adapt_max_steps, mg_auto_min_unknowns, analysis_free, analysis_aim_growth, &
                               adapt_aim_margin, adapt_aim_rate_max
-  use dualsig_io_config, only: run_config_t, read_config_file, config_echo
+  use dualsig_io_config, only: run_config_t, read_config_file, config_echo, config_text
   use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
                               table_write_text, table_write_csv, table_format_row, &
@@ -45,7 +45,7 @@ module dualsig_driver
   use dualsig_strings, only: itoa, rtoa
   use dualsig_clock, only: resident_memory_mb, peak_memory_mb
   use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
-                              text_abandon, memory_available_gb
+                              text_abandon, memory_available_gb, same_file
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
   private
@@ -136,6 +136,11 @@ module dualsig_driver
     real(dp) :: min_angle = 180.0_dp              !! adaptive: smallest angle over the run's meshes
     character(len=:), allocatable :: stop_text    !! adaptive: why the loop stopped
   end type run_t
+
+  !> A path of variable length (the input and output files of a run).
+  type :: path_t
+    character(len=:), allocatable :: s
+  end type path_t
 
 contains
 
@@ -286,8 +291,9 @@ contains
       end if
       call progress_clear()
       if (.not. is_ok(st)) then
-        ! a mesh or assembly error names the run; a solver (numerical) error the run, its title and the level
-        if (res%ndof > 0) then
+        ! a mesh or assembly error names the run; a solver (numerical) error the run, its title and the level;
+        ! after finished levels (the message below names the run) every error names its level
+        if (res%ndof > 0 .or. done > 0) then
           st%msg = 'level ' // itoa(level) // ': ' // st%msg
           if (done == 0) st%msg = run%where // ' ("' // run%title // '"), ' // st%msg
         else
@@ -317,7 +323,7 @@ contains
       run%stop_text = adapt_stop_text(reason, settings%adapt)
       write (unit, '(a)') 'dualsig: adaptive loop stopped after step ' // itoa(done) // ' (' // &
         itoa(int(table_value(tab, done, 'ndof'))) // ' unknowns, certified relative error ' // &
-        rtoa(certified_rel_error(res)) // ', smallest angle ' // rtoa(run%min_angle) // ' deg): ' // run%stop_text
+        rel_text(certified_rel_error(res)) // ', smallest angle ' // rtoa(run%min_angle) // ' deg): ' // run%stop_text
     end if
     if (is_ok(st)) then
       call write_run_files(run, an%mesh, tab, done, '', st, unit)
@@ -1243,11 +1249,30 @@ contains
       if (cfg%vtk) write (unit, '(a)') 'dualsig: ParaView files written: ' // trim(cfg%output) // &
         '.pvd and ' // itoa(nlevel) // ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu'
       if (run%nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &
-        itoa(run%nonconverged) // ' solve(s) of run "' // trim(cfg%title) // '" did not converge')
+        itoa(run%nonconverged) // ' solve(s) of run "' // trim(run_name(cfg)) // '" did not converge')
       if (run%uncertified > 0) call set_warning(st, DS_WARN_NOT_CERTIFIED, &
-        itoa(run%uncertified) // ' level(s) of run "' // trim(cfg%title) // '" have bounds that are NOT certified')
+        itoa(run%uncertified) // ' level(s) of run "' // trim(run_name(cfg)) // '" have bounds that are NOT certified')
     end associate
   end subroutine write_run_files
+
+  !> A certified relative error as printed: 'none (no certified step)' for huge (no bound).
+  function rel_text(rel) result(text)
+    real(dp), intent(in) :: rel
+    character(len=:), allocatable :: text
+    if (rel >= huge(1.0_dp)) then
+      text = 'none (no certified step)'
+    else
+      text = rtoa(rel)
+    end if
+  end function rel_text
+
+  !> The name of a run in messages: its title, or its output name when it has none.
+  pure function run_name(cfg) result(name)
+    type(run_config_t), intent(in) :: cfg
+    character(len=:), allocatable :: name
+    name = trim(cfg%title)
+    if (len(name) == 0) name = trim(cfg%output)
+  end function run_name
 
   !> Fail early, before any computation, when the tables of run `cfg` cannot be written:
   !> create the output's directory (like mkdir -p), refuse an output whose table name is a
@@ -1284,6 +1309,8 @@ contains
         return
       end if
     end do
+    call check_output_not_input(cfg, where, st)
+    if (st%code /= 0) return
     call text_open(probe, txt_path, st)
     if (st%code /= 0) then
       st%msg = where // "cannot create files in the directory '" // dir // "' (" // st%msg // &
@@ -1292,5 +1319,36 @@ contains
     end if
     call text_abandon(probe)
   end subroutine check_output_writable
+
+  !> An output file of run cfg (the tables, the ParaView series, the final mesh) must not be
+  !> one of its input files (the namelist file, the mesh file, f_file): writing it would
+  !> destroy the input (same_file: the same device and inode, whatever the spelling).
+  subroutine check_output_not_input(cfg, where, st)
+    type(run_config_t), intent(in) :: cfg
+    character(len=*), intent(in) :: where
+    type(status_t), intent(inout) :: st
+    type(path_t) :: inputs(3), outputs(5)
+    integer :: i, o
+    inputs(1)%s = cfg%source_file
+    inputs(2)%s = ''
+    if (trim(cfg%mesh_source) == 'file') inputs(2)%s = trim(cfg%mesh_file)
+    inputs(3)%s = ''
+    if (allocated(cfg%f_file)) inputs(3)%s = trim(config_text(cfg%f_file))
+    outputs(1)%s = trim(cfg%output) // '.txt'
+    outputs(2)%s = trim(cfg%output) // '.csv'
+    outputs(3)%s = trim(cfg%output) // '.tex'
+    outputs(4)%s = trim(cfg%output) // '.pvd'
+    outputs(5)%s = mesh_edges_path(cfg%output)
+    do i = 1, size(inputs)
+      if (len(inputs(i)%s) == 0) cycle
+      do o = 1, size(outputs)
+        if (.not. same_file(outputs(o)%s, inputs(i)%s)) cycle
+        call set_error(st, DS_ERR_IO, where // 'the output file ' // outputs(o)%s // ' is the input file ' // &
+          inputs(i)%s // ' of this run (expected an output name that does not overwrite the namelist, mesh ' // &
+          'or load file)')
+        return
+      end do
+    end do
+  end subroutine check_output_not_input
 
 end module dualsig_driver

@@ -8,9 +8,9 @@
 !> the coarse mesh: a value that is not finite (NaN, Inf) is an error naming the file, the
 !> variable, the point and the triangle.  Boundary parts are the driver's (&run).
 module dualsig_user_problem
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_IO
-  use dualsig_strings, only: itoa, rtoa
+  use dualsig_strings, only: itoa, i8toa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_expression, only: expression_t, expression_compile, expression_check_finite, &
                                 expression_input_message
@@ -22,8 +22,16 @@ module dualsig_user_problem
   use dualsig_analysis, only: analysis_problem_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_alloc, only: alloc_failed, BYTES_REAL, BYTES_INT
+  use dualsig_io_files, only: regular_file_size
   implicit none
   private
+
+  !> An f_file larger than f_file_fixed_bytes + f_file_bytes_per_node per node of the coarse
+  !> mesh is refused before it is read (values and comments of a text file need far less;
+  !> a binary file given by mistake would be read as one huge line).
+  integer(i8), parameter :: f_file_fixed_bytes = 1048576_i8, f_file_bytes_per_node = 256_i8
+  !> Characters of a bad field shown in the message.
+  integer, parameter :: shown_chars = 40
 
   public :: user_problem_build, user_problem_description
 
@@ -260,11 +268,29 @@ contains
     character(len=4096) :: line
     character(len=256) :: msg
     integer :: u, ios, n, lineno, k, p, q, nn, ist
+    integer(i8) :: nbytes
+    character(len=:), allocatable :: why
     real(dp) :: v
     type(nodal_field_t) :: nf
     path = trim(config_text(cfg%f_file))
     where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ': &problem f_file = ''' // path // ''': '
     nn = pb%mesh%nnode
+    ! stat(2) first: a FIFO would block the open, a device (/dev/zero) never ends, a
+    ! directory holds no values; a file far larger than nn values need (a binary file given
+    ! by mistake) would be read as one huge line
+    if (.not. regular_file_size(path, nbytes, why)) then
+      if (index(why, 'a ') == 1) then
+        call set_error(st, DS_ERR_IO, where // 'not a regular file but ' // why // &
+          ' (expected a text file of nodal values; it was not opened)')
+        return
+      end if
+    else if (nbytes > f_file_fixed_bytes + f_file_bytes_per_node * int(nn, i8)) then
+      call set_error(st, DS_ERR_INPUT, where // i8toa(nbytes) // ' bytes, more than a text file of ' // &
+        itoa(nn) // ' nodal values plausibly holds (at most ' // &
+        i8toa(f_file_fixed_bytes + f_file_bytes_per_node * int(nn, i8)) // &
+        '; expected one value per node of the coarse mesh)')
+      return
+    end if
     open (newunit=u, file=path, status='old', action='read', iostat=ios, iomsg=msg)
     if (ios /= 0) then
       call set_error(st, DS_ERR_IO, where // 'cannot open for reading (' // trim(msg) // &
@@ -294,7 +320,8 @@ contains
         q = merge(len_trim(line), p + q - 2, q == 0)
         read (line(p:q), *, iostat=ios) v
         if (ios /= 0 .or. .not. ieee_is_finite(v)) then
-          call set_error(st, DS_ERR_INPUT, where // 'line ' // itoa(lineno) // ': ''' // line(p:q) // &
+          call set_error(st, DS_ERR_INPUT, where // 'line ' // itoa(lineno) // ': ''' // &
+            printable(line(p:min(q, p + shown_chars - 1))) // trim(merge('...', '   ', q > p + shown_chars - 1)) // &
             ''' is not a finite real number (expected one value per node of the coarse mesh)')
           close (u)
           return
@@ -315,4 +342,16 @@ contains
     allocate (pb%f, source=nf, stat=ist)
     if (alloc_failed(ist, st, 'the nodal load', 3 * pb%mesh%nnode + 3 * pb%mesh%ntri, BYTES_REAL)) return
   end subroutine file_load
+
+  !> s with every character outside printable ASCII replaced by '?' (for messages).
+  pure function printable(s) result(t)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: t
+    integer :: i
+    do i = 1, len(s)
+      t(i:i) = s(i:i)
+      if (iachar(s(i:i)) < 32 .or. iachar(s(i:i)) > 126) t(i:i) = '?'
+    end do
+  end function printable
+
 end module dualsig_user_problem

@@ -1,10 +1,10 @@
 !> Small string helpers for messages and tables.
 module dualsig_strings
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   implicit none
   private
 
-  public :: itoa, rtoa, lower
+  public :: itoa, i8toa, rtoa, lower
 
   !> Most significant digits ever needed for a real(dp) to read back exactly.
   integer, parameter :: max_digits = 17
@@ -19,6 +19,15 @@ contains
     write (buf, '(i0)') i
     s = trim(buf)
   end function itoa
+
+  !> Decimal form of a 64-bit integer without blanks.
+  pure function i8toa(i) result(s)
+    integer(i8), intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=24) :: buf
+    write (buf, '(i0)') i
+    s = trim(buf)
+  end function i8toa
 
   !> The shortest scientific form of x that reads back to the same value; a zero exponent
   !> is dropped (1.5E+000 -> 1.5).

@@ -79,6 +79,7 @@ module dualsig_load_data
     real(dp), allocatable :: diameter(:)    !! (ntri) h_T, the longest side
     logical, allocatable :: converged(:)    !! (ntri) both passes met load_rel_tol
     integer :: nunconverged = 0             !! triangles not converged
+    logical :: budget_spent = .false.       !! a triangle or the mesh ran out of pieces (load_max_pieces, load_mesh_pieces_*)
     integer :: evaluations = 0              !! evaluations of f in all
     !> the scales of f over the domain the thresholds used (int |f| / |Omega|, int f^2 / |Omega|)
     real(dp) :: scales(2) = -1.0_dp
@@ -136,8 +137,7 @@ contains
       area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
       diameter = piece_size(xy)
       data%diameter(t) = diameter
-      ! the pieces in coordinates about the centroid: x - x_T of the moments is then exact
-      ! where the triangle is small for its distance from the origin
+      ! pieces in coordinates about the centroid: x - x_T exact for a small triangle far out
       local = xy - spread(centroid, 2, 3)
       br_local = br - centroid(1)
       budget = load_max_pieces
@@ -216,6 +216,7 @@ contains
       end if
       if (ok .or. depth >= load_max_depth .or. budget <= 0 .or. mesh_budget <= 0 .or. &
           .not. all(ieee_is_finite(fine))) then
+        if (.not. ok .and. (budget <= 0 .or. mesh_budget <= 0)) data%budget_spent = .true.
         s = fine
         return
       end if
@@ -333,6 +334,7 @@ contains
     call move_alloc(from%diameter, to%diameter)
     call move_alloc(from%converged, to%converged)
     to%nunconverged = from%nunconverged
+    to%budget_spent = from%budget_spent
     to%evaluations = from%evaluations
     to%scales = from%scales
     to%nkept = from%nkept

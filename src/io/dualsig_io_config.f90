@@ -400,11 +400,21 @@ contains
     character(len=:), allocatable :: cur
     character(len=256) :: msg
     integer :: u, ios, n, sz, k, ist
+    integer(i8) :: nbytes
+    character(len=:), allocatable :: why
     logical :: there, at_end
     inquire (file=path, exist=there)
     if (.not. there) then
       call set_error(st, DS_ERR_IO, trim(path) // ': namelist file not found')
       return
+    end if
+    ! a FIFO would block the open for ever, a device or directory is no namelist file
+    if (.not. regular_file_size(trim(path), nbytes, why)) then
+      if (index(why, 'a ') == 1) then             ! a directory, FIFO, device or socket (else: the open says)
+        call set_error(st, DS_ERR_IO, trim(path) // ': not a regular file but ' // why // &
+          ' (expected a namelist file; it was not opened)')
+        return
+      end if
     end if
     open (newunit=u, file=path, status='old', action='read', iostat=ios, iomsg=msg)
     if (ios /= 0) then

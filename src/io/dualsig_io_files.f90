@@ -24,7 +24,7 @@ module dualsig_io_files
   public :: file_exists, file_delete, file_commit, file_commit_all, ensure_parent_dir, temp_name
   public :: text_file_t, text_open, text_put, text_close, text_abandon
   public :: cleanup_on_signals, temp_files_registered, errno_text, memory_available_gb
-  public :: regular_file_size
+  public :: regular_file_size, same_file
 
   !> An output file being written under its temporary name.
   type :: text_file_t
@@ -85,6 +85,10 @@ module dualsig_io_files
       character(kind=c_char), intent(in) :: path(*)
       integer(c_long_long), intent(out) :: nbytes
     end function c_file_kind
+    integer(c_int) function c_same_file(a, b) bind(c, name='dualsig_same_file')
+      import :: c_int, c_char
+      character(kind=c_char), intent(in) :: a(*), b(*)
+    end function c_same_file
     integer(c_int) function c_cleanup_install() bind(c, name='dualsig_cleanup_install')
       import :: c_int
     end function c_cleanup_install
@@ -168,6 +172,13 @@ contains
       why = errno_text(-int(kind))
     end select
   end function regular_file_size
+
+  !> True when the paths a and b name the same existing file (same device and inode, links
+  !> followed: 'x.txt', './x.txt' and a link to it are the same file).
+  logical function same_file(a, b)
+    character(len=*), intent(in) :: a, b
+    same_file = c_same_file(a // c_null_char, b // c_null_char) == 1
+  end function same_file
 
   !> Delete `path` if it exists and forget it as a temporary file (errors are ignored:
   !> used for clean-up).

@@ -112,6 +112,15 @@ int dualsig_file_kind(const char *path, long long *size)
     return 4;
 }
 
+/* 1 when the paths a and b name the same existing file (same device and inode, symbolic
+ * links followed), else 0.  Never opens them. */
+int dualsig_same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) != 0 || stat(b, &sb) != 0) return 0;
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
 /* ------------------------------------------------------------------ temporary files */
 
 /* Register a temporary file for removal on a signal.  Returns 0, ENAMETOOLONG, or ENOSPC

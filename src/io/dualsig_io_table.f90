@@ -367,14 +367,22 @@ contains
     else if (short .and. tab%name(k) == 'eff' .and. abs(tab%val(k, row)) < eff_fixed_max) then
       write (buf, '(f12.6)') tab%val(k, row)
     else if (short .and. (tab%name(k) == 'eff' .or. tab%name(k) == 'energy_lo' .or. tab%name(k) == 'energy_hi')) then
-      write (buf, '(es14.6e2)') tab%val(k, row)
+      write (buf, merge('(es14.6e3)', '(es14.6e2)', three_digit_exponent(tab%val(k, row)))) tab%val(k, row)
     else if (short) then
-      write (buf, '(es12.4e2)') tab%val(k, row)
+      write (buf, merge('(es12.4e3)', '(es12.4e2)', three_digit_exponent(tab%val(k, row)))) tab%val(k, row)
     else
       write (buf, '(es24.16e3)') tab%val(k, row)
     end if
     s = trim(adjustl(buf))
   end function cell
+
+  !> x needs three exponent digits in scientific notation (|x| < 1e-99, or rounding to 1e100
+  !> or more; not 0):
+  !> written with two, its cell would be asterisks.
+  pure logical function three_digit_exponent(x)
+    real(dp), intent(in) :: x
+    three_digit_exponent = x /= 0.0_dp .and. (abs(x) < 1.0e-99_dp .or. abs(x) >= 9.9999e99_dp)
+  end function three_digit_exponent
 
   !> Cell text for LaTeX: integer, $d.ddd\times10^{e}$ (sign in the mantissa), or '--'.
   pure function latex_cell(tab, k, row) result(s)

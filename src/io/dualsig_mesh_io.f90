@@ -50,7 +50,7 @@ module dualsig_mesh_io
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH, DS_ERR_IO
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
   use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
-  use dualsig_strings, only: itoa
+  use dualsig_strings, only: itoa, i8toa
   use dualsig_io_files, only: regular_file_size
   use dualsig_alloc, only: alloc_failed, alloc_check, BYTES_INT
   implicit none
@@ -467,14 +467,6 @@ contains
       itoa(min_item_bytes) // ' bytes; expected the true count: a wrong header or a truncated file?)')
   end function count_fits
 
-  !> Decimal text of a 64-bit integer.
-  pure function i8toa(v) result(s)
-    integer(i8), intent(in) :: v
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write (buf, '(i0)') v
-    s = trim(buf)
-  end function i8toa
 
   !> The check of count_fits for the line reader of the Gmsh and Triangle readers, at its
   !> current line: .false. (and an error) when `n` items cannot fit in the rest of the file.
