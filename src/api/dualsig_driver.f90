@@ -1062,8 +1062,9 @@ contains
           'bisection and transfer of u_h; estimate_s = dual solve and bounds; elapsed_s = since the start; ' // &
           'nheld = triangles left unmarked at the area floor of double precision'
         head = [character(len=500) :: head, line]
-        line = 'adaptive: the marks are Doerfler''s set extended by the largest indicators until a step grows ' // &
-          'the unknowns by at least min_growth = ' // rtoa(cfg%adapt_min_growth) // '; a step that can reach tol ' // &
+        line = 'adaptive: the marks are Doerfler''s set extended by the largest indicators until a step''s new ' // &
+          'nodes reach (min_growth - 1) ndof, min_growth = ' // rtoa(cfg%adapt_min_growth) // ' (a target: a few ' // &
+          'bisections are tried, then the step is kept); a step that can reach tol ' // &
           'aims at it: between 1 and ' // rtoa(adapt_aim_margin) // ' times (rel/tol)^(1/p) ndof, p the last rate ' // &
           '(at most ' // rtoa(adapt_aim_rate_max) // ')'
         head = [character(len=500) :: head, line]

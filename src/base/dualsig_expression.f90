@@ -348,11 +348,12 @@ contains
     if (p%tok == T_NAME) is_word = p%name == w
   end function is_word
 
-  !> Enter one level of nesting; false (and an error) beyond max_nesting.
+  !> Enter one level of nesting; false (and an error) beyond max_nesting levels below the
+  !> expression itself (its own parse_or is level 0: 400 nested parentheses are allowed).
   logical function enter(p)
     type(parser_t), intent(inout) :: p
     p%nest = p%nest + 1
-    enter = p%nest <= max_nesting
+    enter = p%nest <= max_nesting + 1
     if (.not. enter) call fail(p, p%col, 'expression nested too deeply (more than ' // itoa(max_nesting) // ' levels)')
   end function enter
 

@@ -367,23 +367,30 @@ contains
   end function sums_of
 
   !> g with M g = m, M = int_T (x - x_T)(x - x_T)^T = |T|/12 sum_k (a_k - x_T)(a_k - x_T)^T
-  !> (exact for the second moments of a triangle about its centroid).
+  !> (exact for the second moments of a triangle about its centroid).  Solved with the
+  !> offsets scaled by the triangle's size L (M = |T| L^2 / 12 Mhat, Mhat of order 1): the
+  !> determinant of M itself is of order (|T| L^2)^2, which overflows for a domain of size
+  !> 1e40 and underflows for one of size 1e-40.
   pure function linear_slope(xy, centroid, area, m) result(g)
     real(dp), intent(in) :: xy(2, 3), centroid(2), area, m(2)
     real(dp) :: g(2)
-    real(dp) :: mm(2, 2), d(2), det
+    real(dp) :: mm(2, 2), d(2, 3), det, size_l
     integer :: k
+    do k = 1, 3
+      d(:, k) = xy(:, k) - centroid
+    end do
+    size_l = maxval(abs(d))
+    d = d / size_l
     mm = 0.0_dp
     do k = 1, 3
-      d = xy(:, k) - centroid
-      mm(1, 1) = mm(1, 1) + d(1) * d(1)
-      mm(1, 2) = mm(1, 2) + d(1) * d(2)
-      mm(2, 2) = mm(2, 2) + d(2) * d(2)
+      mm(1, 1) = mm(1, 1) + d(1, k) * d(1, k)
+      mm(1, 2) = mm(1, 2) + d(1, k) * d(2, k)
+      mm(2, 2) = mm(2, 2) + d(2, k) * d(2, k)
     end do
-    mm = mm * area / 12.0_dp
     mm(2, 1) = mm(1, 2)
     det = mm(1, 1) * mm(2, 2) - mm(1, 2) * mm(2, 1)
     g = [mm(2, 2) * m(1) - mm(1, 2) * m(2), mm(1, 1) * m(2) - mm(2, 1) * m(1)] / det
+    g = ((12.0_dp / area) * g / size_l) / size_l
   end function linear_slope
 
   !> The four children of a triangle by midpoint subdivision.

@@ -145,9 +145,10 @@ contains
           if (res%kkt_residual > (1.0_dp - stall_rel_decrease) * window_res) then
             write (buf, '(a,es9.2,a,es9.2,a,i0,a)') 'psor: no progress: the KKT residual stayed at ', &
               res%kkt_residual, ' (', window_res, ' ', it - window_it, ' sweeps earlier)'
-            call set_error(st, DS_ERR_NUMERIC, trim(buf) // ': a singular system, e.g. a part of the ' // &
-              'domain without Gamma_u (u = 0) in problem P2, a floating component (expected every part of the ' // &
-              'domain held by Gamma_u, or the active-set solver)')
+            call set_error(st, DS_ERR_NUMERIC, trim(buf) // ': a singular or nearly singular system, e.g. a ' // &
+              'part of the domain without Gamma_u (u = 0) in problem P2, or a P1 domain so small that the ' // &
+              'u term of -Lap u + u is below the rounding of the Laplacian (expected every part of a P2 ' // &
+              'domain held by Gamma_u, and a P1 problem scaled to a domain of moderate size)')
             res%iterations = it
             return
           end if
