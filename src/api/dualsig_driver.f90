@@ -42,7 +42,7 @@ module dualsig_driver
   use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_run_files, &
                             vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, &
                             mesh_edges_path
-  use dualsig_strings, only: itoa, rtoa
+  use dualsig_strings, only: itoa, i8toa, rtoa
   use dualsig_clock, only: resident_memory_mb, peak_memory_mb
   use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
                               text_abandon, memory_available_gb, same_file
@@ -465,7 +465,7 @@ contains
       what = 'the available memory (MemAvailable of /proc/meminfo and this process''s resident memory) ' // &
              rtoa(limit) // ' GB'
     end if
-    if (need > limit) call set_error(st, DS_ERR_INPUT, 'level ' // itoa(level) // ': ' // int8_text(ntri) // &
+    if (need > limit) call set_error(st, DS_ERR_INPUT, 'level ' // itoa(level) // ': ' // i8toa(ntri) // &
       ' triangles need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
       ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
   end subroutine check_level_memory
@@ -543,15 +543,6 @@ contains
     if (.not. linear .and. ntri_prev > 1) fill = max(1.0_dp, log(real(ntri, dp)) / log(real(ntri_prev, dp)))
     gb = memory_measured_margin * per_tri * real(ntri, dp) * fill / 1.0e9_dp
   end function measured_level_memory_gb
-
-  !> An integer(int64) as text.
-  pure function int8_text(i) result(text)
-    integer(int64), intent(in) :: i
-    character(len=:), allocatable :: text
-    character(len=24) :: buf
-    write (buf, '(i0)') i
-    text = trim(buf)
-  end function int8_text
 
   !> The analysis problem of a run: the scene (load, exact solution, default boundary
   !> parts) or &problem, the coarse mesh (generator or file) and the boundary markers; the
