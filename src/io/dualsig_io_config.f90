@@ -39,6 +39,8 @@ module dualsig_io_config
   public :: run_config_t, read_config_file, config_echo, config_text, max_line_len, max_breaks, region_value_len
 
   integer, parameter :: max_line_len = 65536    !! longest accepted line of a namelist file
+  !> The value of an unset slot of a marker list while &run is read (no marker is negative)
+  integer, parameter :: unset_marker = -huge(1)
   integer, parameter :: read_chunk = 4096       !! characters read at a time from a line
   integer, parameter :: max_breaks = 16         !! &problem breaks: most abscissae
   integer, parameter :: region_value_len = 2048 !! &problem f_region_values: longest expression
@@ -849,8 +851,9 @@ contains
       title = cfg%title
       scene = cfg%scene
       output = cfg%output
-      gamma_u_markers = cfg%gamma_u_markers
-      gamma_a_markers = cfg%gamma_a_markers
+      ! unset slots hold unset_marker while reading: a 0 given inside a list is then seen
+      gamma_u_markers = merge(unset_marker, cfg%gamma_u_markers, cfg%gamma_u_markers == 0)
+      gamma_a_markers = merge(unset_marker, cfg%gamma_a_markers, cfg%gamma_a_markers == 0)
       vtk = cfg%vtk
       vtu_format = cfg%vtu_format
       latex = cfg%latex
@@ -865,6 +868,12 @@ contains
         call bad_value('a finite real number', ios, msg)
         return
       end if
+      if (zero_in_list(gamma_u_markers) .or. zero_in_list(gamma_a_markers)) then
+        call bad_value('markers > 0', ios, msg)          ! (the caller names the expected list)
+        return
+      end if
+      gamma_u_markers = merge(0, gamma_u_markers, gamma_u_markers == unset_marker)
+      gamma_a_markers = merge(0, gamma_a_markers, gamma_a_markers == unset_marker)
       if (too_long(title, cfg%title) .or. too_long(scene, cfg%scene) .or. too_long(output, cfg%output) .or. &
           too_long(vtu_format, cfg%vtu_format)) then
         call bad_value('a shorter string', ios, msg)
@@ -1332,6 +1341,13 @@ contains
     too_long = len_trim(value) > len(field)
   end function too_long
 
+  !> A marker list read over unset_marker slots holds a 0 beside a marker (a 0 alone, as
+  !> the header echo writes an empty list, means the list is empty).
+  pure logical function zero_in_list(list)
+    integer, intent(in) :: list(:)
+    zero_in_list = any(list == 0) .and. any(list /= 0 .and. list /= unset_marker)
+  end function zero_in_list
+
   !> Mark the read as failed: the caller names the item and the expected value.
   subroutine bad_value(expected, ios, msg)
     character(len=*), intent(in) :: expected
@@ -1364,7 +1380,7 @@ contains
     case ('format')
       s = 'a quoted string'
     case ('gamma_u_markers', 'gamma_a_markers')
-      s = 'a list of at most 16 integers'
+      s = 'a list of at most 16 integers > 0; 0 alone is the empty list'
     case default
       s = 'an integer'
     end select
