@@ -235,6 +235,7 @@ contains
     type(level_result_t) :: res
     type(table_t) :: tab
     type(status_t) :: st_write
+    type(run_config_t) :: defaults                    ! the defaults of every item (the notes)
     integer :: level, done, reason
 
     run%cfg = cfg
@@ -277,6 +278,9 @@ contains
     if (cfg%method /= 'psor' .and. (cfg%omega_auto .or. cfg%omega /= 1.0_dp)) write (unit, '(a)') 'note: ' // &
       run%where // ": &solver omega / omega_auto apply to method = 'psor' only; ignored with method = '" // &
       trim(cfg%method) // "' (the default is 'auto')"
+    if (cfg%adapt_enabled .and. cfg%levels /= defaults%levels) write (unit, '(a)') 'note: ' // &
+      run%where // ': &mesh levels = ' // itoa(cfg%levels) // ' is ignored by an adaptive run (&adapt ' // &
+      'enabled: its steps end at tol, max_ndof, max_seconds or ' // itoa(adapt_max_steps) // ' steps)'
     call mesh_quality_report(run%q0, unit)
     write (unit, '(a)') table_format_header(tab)
     done = 0
