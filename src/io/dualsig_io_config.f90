@@ -673,9 +673,10 @@ contains
       call read_group(grp%name, one, probe, ios, msg)
       if (ios /= 0) then
         name = assignment_name(assign(a))
+        ! the reader's own check says what it expected (bad_value), else the item's type
+        if (index(msg, 'expected ') /= 1) msg = 'expected ' // expected_type(name)
         call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(grp%name) // ', line ' // &
-          itoa(assign_line(a)) // ': invalid value for "' // trim(name) // '" (expected ' // &
-          expected_type(name) // ')')
+          itoa(assign_line(a)) // ': invalid value for "' // trim(name) // '" (' // trim(msg) // ')')
         return
       end if
     end do
@@ -869,16 +870,16 @@ contains
         return
       end if
       if (zero_in_list(gamma_u_markers) .or. zero_in_list(gamma_a_markers)) then
-        call bad_value('markers > 0', ios, msg)          ! (the caller names the expected list)
+        call bad_value('a list of at most 16 integers > 0; 0 alone is the empty list', ios, msg)
         return
       end if
       gamma_u_markers = merge(0, gamma_u_markers, gamma_u_markers == unset_marker)
       gamma_a_markers = merge(0, gamma_a_markers, gamma_a_markers == unset_marker)
-      if (too_long(title, cfg%title) .or. too_long(scene, cfg%scene) .or. too_long(output, cfg%output) .or. &
-          too_long(vtu_format, cfg%vtu_format)) then
-        call bad_value('a shorter string', ios, msg)
-        return
-      end if
+      call check_len(title, cfg%title, ios, msg)
+      call check_len(scene, cfg%scene, ios, msg)
+      call check_len(output, cfg%output, ios, msg)
+      call check_len(vtu_format, cfg%vtu_format, ios, msg)
+      if (ios /= 0) return
       do k = 1, max_markers
         if (too_long(gamma_u_names(k), cfg%gamma_u_names(k)) .or. too_long(gamma_a_names(k), cfg%gamma_a_names(k))) then
           call bad_value('names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
@@ -919,11 +920,11 @@ contains
         call bad_value('a finite real number', ios, msg)
         return
       end if
-      if (too_long(source, cfg%mesh_source) .or. too_long(pattern, cfg%pattern) .or. &
-          too_long(file, cfg%mesh_file) .or. too_long(format, cfg%mesh_format)) then
-        call bad_value('a shorter string', ios, msg)
-        return
-      end if
+      call check_len(source, cfg%mesh_source, ios, msg)
+      call check_len(pattern, cfg%pattern, ios, msg)
+      call check_len(file, cfg%mesh_file, ios, msg)
+      call check_len(format, cfg%mesh_format, ios, msg)
+      if (ios /= 0) return
       cfg%mesh_source = source(1:len(cfg%mesh_source))
       cfg%mesh_file = file(1:len(cfg%mesh_file))
       cfg%mesh_format = format(1:len(cfg%mesh_format))
@@ -952,10 +953,8 @@ contains
         call bad_value('a finite real number', ios, msg)
         return
       end if
-      if (too_long(method, cfg%method)) then
-        call bad_value('a shorter string', ios, msg)
-        return
-      end if
+      call check_len(method, cfg%method, ios, msg)
+      if (ios /= 0) return
       cfg%method = method(1:len(cfg%method))
       cfg%omega = omega
       cfg%omega_auto = omega_auto
@@ -1003,12 +1002,12 @@ contains
       call bad_value('a finite real number', ios, msg)
       return
     end if
-    if (too_long(method, cfg%dual_method) .or. too_long(ordering, cfg%dual_ordering) .or. &
-        too_long(inner, cfg%dual_inner) .or. too_long(particular, cfg%dual_particular) .or. &
-        too_long(space, cfg%dual_space)) then
-      call bad_value('a shorter string', ios, msg)
-      return
-    end if
+    call check_len(method, cfg%dual_method, ios, msg)
+    call check_len(ordering, cfg%dual_ordering, ios, msg)
+    call check_len(inner, cfg%dual_inner, ios, msg)
+    call check_len(particular, cfg%dual_particular, ios, msg)
+    call check_len(space, cfg%dual_space, ios, msg)
+    if (ios /= 0) return
     cfg%dual_enabled = enabled
     cfg%dual_method = method(1:len(cfg%dual_method))
     cfg%dual_rho = rho
@@ -1134,10 +1133,8 @@ contains
       call bad_value('a finite real number', ios, msg)
       return
     end if
-    if (too_long(kind, cfg%problem_kind)) then
-      call bad_value('a shorter string', ios, msg)
-      return
-    end if
+    call check_len(kind, cfg%problem_kind, ios, msg)
+    if (ios /= 0) return
     do k = 1, max_markers
       if (too_long(f_regions(k), cfg%f_regions(k))) then
         call bad_value('names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
@@ -1340,6 +1337,17 @@ contains
     character(len=*), intent(in) :: value, field
     too_long = len_trim(value) > len(field)
   end function too_long
+
+  !> Unless a check failed already (ios /= 0): fail when value does not fit in field,
+  !> naming both lengths.
+  subroutine check_len(value, field, ios, msg)
+    character(len=*), intent(in) :: value, field
+    integer, intent(inout) :: ios
+    character(len=*), intent(inout) :: msg
+    if (ios /= 0) return
+    if (too_long(value, field)) call bad_value('a quoted string of at most ' // itoa(len(field)) // &
+      ' characters (this one has ' // itoa(len_trim(value)) // ')', ios, msg)
+  end subroutine check_len
 
   !> A marker list read over unset_marker slots holds a 0 beside a marker (a 0 alone, as
   !> the header echo writes an empty list, means the list is empty).
