@@ -5,15 +5,17 @@
 !> it is the solution of a different problem, and the error columns and effectivities
 !> computed from it are meaningless (eff < 1 in certified rows was seen that way).
 !>
-!> exact_boundary_check samples u_exact and its gradient at 1/4, 1/2 and 3/4 of every
-!> boundary edge of the (coarse) mesh, with the outward normal nu of the edge (boundary
-!> edges run with the domain on their left, so nu = (t_y, -t_x) for the unit tangent t),
-!> and returns DS_ERR_INPUT naming the first point where a condition fails by more than
-!> exact_bc_tol relative to max|u| resp. max|grad u| over the samples and the nodes.
-!> Points where the gradient is not finite (a corner singularity) are skipped.
+!> exact_boundary_check samples u_exact and its gradient at the three Gauss points of every
+!> boundary edge of the (coarse) mesh (not at rational fractions, where a manufactured
+!> sin(k pi x) tends to vanish), with the outward normal nu of the edge (boundary edges run
+!> with the domain on their left, so nu = (t_y, -t_x) for the unit tangent t), and returns
+!> DS_ERR_INPUT naming the first point where a condition fails by more than exact_bc_tol
+!> relative to the scales of u and grad u: max|u| and max|grad u| over the nodes, the
+!> centroids and the samples, and max|grad u| times the mesh diameter for u.  Points where
+!> the gradient is not finite (a corner singularity) are skipped.
 module dualsig_exact_boundary
   use dualsig_kinds, only: dp
-  use dualsig_mesh, only: mesh_t
+  use dualsig_mesh, only: mesh_t, mesh_diameter
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_problem_kinds, only: PROBLEM_P1
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
@@ -27,8 +29,9 @@ module dualsig_exact_boundary
   !> A condition holds when violated by at most this, relative to max|u| or max|grad u|
   !> (the expressions and scenes are exact up to rounding).
   real(dp), parameter :: exact_bc_tol = 1.0e-8_dp
-  !> The sample points on each boundary edge (fractions of the edge from its first node).
-  real(dp), parameter :: fractions(3) = [0.25_dp, 0.5_dp, 0.75_dp]
+  !> The sample points on each boundary edge (fractions of the edge from its first node):
+  !> the Gauss points 1/2 -+ sqrt(15)/10 and 1/2.
+  real(dp), parameter :: fractions(3) = [0.5_dp - sqrt(15.0_dp) / 10.0_dp, 0.5_dp, 0.5_dp + sqrt(15.0_dp) / 10.0_dp]
 
 contains
 
@@ -49,30 +52,39 @@ contains
     call check_edges(mesh, kind, gamma_u, u_exact, grad_exact, what, u_scale, g_scale, st)
   end subroutine exact_boundary_check
 
-  !> max|u| over the nodes and the boundary samples, max|grad u| over the boundary samples
-  !> where it is finite.
+  !> max|u| and max|grad u| (where finite) over the nodes, the centroids and the boundary
+  !> samples; u's scale at least max|grad u| times the mesh diameter.
   subroutine sample_scales(mesh, u_exact, grad_exact, u_scale, g_scale)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: u_exact
     class(vector_field_t), intent(in) :: grad_exact
     real(dp), intent(out) :: u_scale, g_scale
-    real(dp) :: p(2), g(2), v
+    real(dp) :: p(2)
     integer :: i, j, k
     u_scale = 0.0_dp
     g_scale = 0.0_dp
     do i = 1, mesh%nnode
-      v = u_exact%value(mesh%xy(1, i), mesh%xy(2, i))
-      if (ieee_is_finite(v)) u_scale = max(u_scale, abs(v))
+      call add_point(mesh%xy(:, i))
+    end do
+    do i = 1, mesh%ntri
+      call add_point(sum(mesh%xy(:, mesh%tri(:, i)), dim=2) / 3.0_dp)
     end do
     do j = 1, mesh%nbedge
       do k = 1, size(fractions)
         p = edge_point(mesh, j, fractions(k))
-        v = u_exact%value(p(1), p(2))
-        if (ieee_is_finite(v)) u_scale = max(u_scale, abs(v))
-        g = grad_exact%value(p(1), p(2))
-        if (all(ieee_is_finite(g))) g_scale = max(g_scale, norm2(g))
+        call add_point(p)
       end do
     end do
+    u_scale = max(u_scale, g_scale * mesh_diameter(mesh))
+  contains
+    subroutine add_point(q)
+      real(dp), intent(in) :: q(2)
+      real(dp) :: v, g(2)
+      v = u_exact%value(q(1), q(2))
+      if (ieee_is_finite(v)) u_scale = max(u_scale, abs(v))
+      g = grad_exact%value(q(1), q(2))
+      if (all(ieee_is_finite(g))) g_scale = max(g_scale, norm2(g))
+    end subroutine add_point
   end subroutine sample_scales
 
   !> The conditions at the samples of every boundary edge (module header).
