@@ -882,7 +882,7 @@ contains
       if (ios /= 0) return
       do k = 1, max_markers
         if (too_long(gamma_u_names(k), cfg%gamma_u_names(k)) .or. too_long(gamma_a_names(k), cfg%gamma_a_names(k))) then
-          call bad_value('names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
+          call bad_value('quoted names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
           return
         end if
       end do
@@ -1137,7 +1137,7 @@ contains
     if (ios /= 0) return
     do k = 1, max_markers
       if (too_long(f_regions(k), cfg%f_regions(k))) then
-        call bad_value('names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
+        call bad_value('quoted names of at most ' // itoa(marker_name_len) // ' characters', ios, msg)
         return
       end if
       if (too_long(f_region_values(k), cfg%f_region_values(k))) then
