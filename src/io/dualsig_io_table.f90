@@ -377,8 +377,7 @@ contains
   end function cell
 
   !> x needs three exponent digits in scientific notation (|x| < 1e-99, or rounding to 1e100
-  !> or more; not 0):
-  !> written with two, its cell would be asterisks.
+  !> or more; not 0): written with two, its cell would be asterisks.
   pure logical function three_digit_exponent(x)
     real(dp), intent(in) :: x
     three_digit_exponent = x /= 0.0_dp .and. (abs(x) < 1.0e-99_dp .or. abs(x) >= 9.9999e99_dp)

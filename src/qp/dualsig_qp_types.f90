@@ -16,7 +16,7 @@ module dualsig_qp_types
   private
 
   public :: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, ROW_EQUALITY, ROW_INEQUALITY
-  public :: kkt_residual, kkt_scale, norm_acc_t, norm_acc_add, norm_acc_value, norm_acc_ratio
+  public :: kkt_residual, kkt_scale, norm_acc_t, norm_acc_add, norm_acc_value
 
   integer, parameter :: BOUND_FREE = 0       !! unconstrained unknown
   integer, parameter :: BOUND_LOWER = 1      !! x_i >= bnd(i)
@@ -40,14 +40,16 @@ contains
   !> point, in the units of F) and d = kkt_scale(a, f, kind, bnd), the size of the data of
   !> the problem in the same units; so the ratio is invariant under scaling of F, A and x.
   !> Both norms are accumulated with scaling (no overflow or underflow of the squares).
-  !> `work` (size n) is scratch space.
-  real(dp) function kkt_residual(a, f, kind, bnd, x, work) result(rel)
+  !> `work` (size n) is scratch space; `scale` (optional): d computed once by the caller
+  !> (an iteration that measures its residual repeatedly; d depends on the data only).
+  real(dp) function kkt_residual(a, f, kind, bnd, x, work, scale) result(rel)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: f(:)
     integer, intent(in) :: kind(:)
     real(dp), intent(in) :: bnd(:)
     real(dp), intent(in) :: x(:)
     real(dp), intent(inout) :: work(:)
+    real(dp), intent(in), optional :: scale
     type(norm_acc_t) :: num
     real(dp) :: r
     integer :: i
@@ -63,7 +65,11 @@ contains
       end select
       call norm_acc_add(num, r)
     end do
-    rel = norm_acc_ratio(num, kkt_scale(a, f, kind, bnd))
+    if (present(scale)) then
+      rel = norm_acc_ratio(num, scale)
+    else
+      rel = norm_acc_ratio(num, kkt_scale(a, f, kind, bnd))
+    end if
   end function kkt_residual
 
   !> The size of the data of a bound-constrained QP, the denominator of kkt_residual:

@@ -14,7 +14,7 @@
 module dualsig_solver_psor
   use dualsig_kinds, only: dp
   use dualsig_sparse, only: csr_t, csr_matvec
-  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual
+  use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED, kkt_residual, kkt_scale
   use dualsig_status, only: status_t, set_error, set_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
@@ -105,7 +105,7 @@ contains
     type(psor_plan_t) :: plan
     character(len=200) :: buf
     integer :: it, window_it, ist
-    real(dp) :: window_res
+    real(dp) :: window_res, den
 
     if (.not. (settings%omega > 0.0_dp .and. settings%omega < 2.0_dp)) then
       write (buf, '(a,es10.3)') 'psor: omega must lie in (0, 2), got ', settings%omega
@@ -124,7 +124,8 @@ contains
     if (alloc_failed(ist, st, 'the projected SOR work vector', a%n, BYTES_REAL)) return
     where (kind == BOUND_FIXED) x = bnd
     where (kind == BOUND_LOWER) x = max(x, bnd)
-    res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work)
+    den = kkt_scale(a, f, kind, bnd)                   ! once: the data do not change
+    res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work, den)
     res%converged = res%kkt_residual <= settings%tol
     it = 0
     call psor_plan(a, kind, bnd, settings%omega, plan)
@@ -134,7 +135,7 @@ contains
       call psor_sweep(a, f, plan, x)
       it = it + 1
       if (mod(it, settings%check_every) == 0 .or. it == settings%max_iter) then
-        res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work)
+        res%kkt_residual = kkt_residual(a, f, kind, bnd, x, work, den)
         if (.not. (res%kkt_residual <= huge(1.0_dp))) then
           call set_error(st, DS_ERR_NUMERIC, 'psor: the iterate is no longer finite')
           res%iterations = it
