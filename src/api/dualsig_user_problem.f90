@@ -22,7 +22,7 @@ module dualsig_user_problem
   use dualsig_analysis, only: analysis_problem_t
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_alloc, only: alloc_failed, BYTES_REAL, BYTES_INT
-  use dualsig_io_files, only: regular_file_size
+  use dualsig_io_files, only: input_file_ok
   implicit none
   private
 
@@ -269,7 +269,6 @@ contains
     character(len=256) :: msg
     integer :: u, ios, n, lineno, k, p, q, nn, ist
     integer(i8) :: nbytes
-    character(len=:), allocatable :: why
     real(dp) :: v
     type(nodal_field_t) :: nf
     path = trim(config_text(cfg%f_file))
@@ -278,13 +277,8 @@ contains
     ! stat(2) first: a FIFO would block the open, a device (/dev/zero) never ends, a
     ! directory holds no values; a file far larger than nn values need (a binary file given
     ! by mistake) would be read as one huge line
-    if (.not. regular_file_size(path, nbytes, why)) then
-      if (index(why, 'a ') == 1) then
-        call set_error(st, DS_ERR_IO, where // 'not a regular file but ' // why // &
-          ' (expected a text file of nodal values; it was not opened)')
-        return
-      end if
-    else if (nbytes > f_file_fixed_bytes + f_file_bytes_per_node * int(nn, i8)) then
+    if (.not. input_file_ok(path, where, 'a text file of nodal values', nbytes, st)) return
+    if (nbytes > f_file_fixed_bytes + f_file_bytes_per_node * int(nn, i8)) then
       call set_error(st, DS_ERR_INPUT, where // i8toa(nbytes) // ' bytes, more than a text file of ' // &
         itoa(nn) // ' nodal values plausibly holds (at most ' // &
         i8toa(f_file_fixed_bytes + f_file_bytes_per_node * int(nn, i8)) // &

@@ -31,7 +31,7 @@ module dualsig_io_config
   use dualsig_scenes, only: max_markers
   use dualsig_strings, only: itoa, rtoa, lower
   use dualsig_expression, only: expression_t, expression_compile_input
-  use dualsig_io_files, only: regular_file_size
+  use dualsig_io_files, only: regular_file_size, input_file_ok
   use dualsig_alloc, only: alloc_failed
   implicit none
   private
@@ -403,7 +403,6 @@ contains
     character(len=256) :: msg
     integer :: u, ios, n, sz, k, ist
     integer(i8) :: nbytes
-    character(len=:), allocatable :: why
     logical :: there, at_end
     inquire (file=path, exist=there)
     if (.not. there) then
@@ -411,13 +410,7 @@ contains
       return
     end if
     ! a FIFO would block the open for ever, a device or directory is no namelist file
-    if (.not. regular_file_size(trim(path), nbytes, why)) then
-      if (index(why, 'a ') == 1) then             ! a directory, FIFO, device or socket (else: the open says)
-        call set_error(st, DS_ERR_IO, trim(path) // ': not a regular file but ' // why // &
-          ' (expected a namelist file; it was not opened)')
-        return
-      end if
-    end if
+    if (.not. input_file_ok(trim(path), trim(path) // ': ', 'a namelist file', nbytes, st)) return
     open (newunit=u, file=path, status='old', action='read', iostat=ios, iomsg=msg)
     if (ios /= 0) then
       call set_error(st, DS_ERR_IO, trim(path) // ': cannot open: ' // trim(msg))

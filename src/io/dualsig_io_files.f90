@@ -24,7 +24,7 @@ module dualsig_io_files
   public :: file_exists, file_delete, file_commit, file_commit_all, ensure_parent_dir, temp_name
   public :: text_file_t, text_open, text_put, text_close, text_abandon
   public :: cleanup_on_signals, temp_files_registered, errno_text, memory_available_gb
-  public :: regular_file_size, same_file
+  public :: regular_file_size, same_file, input_file_ok
 
   !> An output file being written under its temporary name.
   type :: text_file_t
@@ -172,6 +172,28 @@ contains
       why = errno_text(-int(kind))
     end select
   end function regular_file_size
+
+  !> Before an input file is opened: it must be a regular file (a FIFO would block the
+  !> open, a device such as /dev/zero never ends, a directory holds nothing).  Otherwise
+  !> DS_ERR_IO in st: prefix // 'not a regular file but <what it is> (expected ' //
+  !> expected // '; it was not opened)'.  A path stat(2) cannot see is left to the open,
+  !> which names the error.  nbytes: the file's size, -1 if unknown.
+  logical function input_file_ok(path, prefix, expected, nbytes, st) result(ok)
+    character(len=*), intent(in) :: path, prefix, expected
+    integer(i8), intent(out) :: nbytes
+    type(status_t), intent(inout) :: st
+    character(len=:), allocatable :: why
+    ok = regular_file_size(path, nbytes, why)
+    if (ok) return
+    nbytes = -1
+    if (why == 'a directory' .or. why == 'a FIFO (named pipe)' .or. why == 'a device' .or. &
+        why == 'a socket or special file') then
+      call set_error(st, DS_ERR_IO, prefix // 'not a regular file but ' // why // ' (expected ' // expected // &
+        '; it was not opened)')
+    else
+      ok = .true.                            ! the open reports a missing or unreadable file
+    end if
+  end function input_file_ok
 
   !> True when the paths a and b name the same existing file (same device and inode, links
   !> followed: 'x.txt', './x.txt' and a link to it are the same file).

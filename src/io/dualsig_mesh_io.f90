@@ -51,7 +51,7 @@ module dualsig_mesh_io
   use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
   use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_strings, only: itoa, i8toa
-  use dualsig_io_files, only: regular_file_size
+  use dualsig_io_files, only: input_file_ok
   use dualsig_alloc, only: alloc_failed, alloc_check, BYTES_INT
   implicit none
   private
@@ -142,7 +142,7 @@ contains
 
     if (present(nflipped)) nflipped = 0
     rd%path = path
-    if (.not. input_file_ok(path, rd%nbytes, st)) return
+    if (.not. input_file_ok(path, "mesh file '" // path // "': ", 'a regular mesh file', rd%nbytes, st)) return
     iom = ''
     open (newunit=rd%unit, file=path, status='old', action='read', form='formatted', &
           access='sequential', iostat=ios, iomsg=iom)
@@ -426,26 +426,6 @@ contains
         ': read error (' // trim(iom) // '); expected a text file')
     end if
   end subroutine read_failure
-
-  !> Before a mesh file is opened: it must be a regular file (a FIFO would block the open, a
-  !> device such as /dev/zero or a directory is no mesh file).  A path stat(2) cannot see is
-  !> left to the open, which names the error.  nbytes: the file's size, -1 if unknown.
-  logical function input_file_ok(path, nbytes, st) result(ok)
-    character(len=*), intent(in) :: path
-    integer(i8), intent(out) :: nbytes
-    type(status_t), intent(inout) :: st
-    character(len=:), allocatable :: why
-    ok = regular_file_size(path, nbytes, why)
-    if (ok) return
-    nbytes = -1
-    if (why == 'a directory' .or. why == 'a FIFO (named pipe)' .or. why == 'a device' .or. &
-        why == 'a socket or special file') then
-      call set_error(st, DS_ERR_IO, "mesh file '" // path // "': not a regular file but " // why // &
-        ' (expected a regular mesh file; it was not opened)')
-    else
-      ok = .true.                            ! the open reports a missing or unreadable file
-    end if
-  end function input_file_ok
 
   !> A count n of items announced in a header must fit in the rest of the file: every item
   !> takes at least min_item_bytes bytes, so a larger count is an error before anything of
@@ -952,7 +932,7 @@ contains
     rd%path = path
     rd%hash_comments = hash_comments
     allocate (rd%fb(initial_field_slots), rd%fe(initial_field_slots))   ! small: fixed size
-    if (.not. input_file_ok(path, rd%nbytes, st)) return
+    if (.not. input_file_ok(path, "mesh file '" // path // "': ", 'a regular mesh file', rd%nbytes, st)) return
     iom = ''
     open (newunit=rd%unit, file=path, status='old', action='read', form='formatted', &
           access='sequential', iostat=ios, iomsg=iom)
