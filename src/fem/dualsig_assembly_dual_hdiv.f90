@@ -23,7 +23,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, rect_from_triplets
+  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside
   use dualsig_status, only: status_t
@@ -35,6 +35,10 @@ module dualsig_assembly_dual_hdiv
             assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, hdiv_point_value, &
             hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
 
+  !> Relative size below which an entry of the prolongation is a rounded zero: the exact
+  !> values are O(1) multiples of the row's largest, the rounded zeros O(eps) of it.
+  real(dp), parameter :: prolongation_zero = 64.0_dp * epsilon(1.0_dp)
+
   !> The condensed system of the side unknowns and what recovers the interior ones.
   type :: hdiv_system_t
     type(csr_t) :: a                        !! (2 nedge) Schur complement of the Gram matrix
@@ -44,6 +48,9 @@ module dualsig_assembly_dual_hdiv
     !> I(q) of (3.1') for the side unknowns xs (interior recovered) is
     !> 1/2 xs^T a xs - b^T xs + shift (shift = -1/2 sum_T b_I^T A_II^{-1} b_I of the condensation)
     real(dp) :: shift = 0.0_dp
+    !> ||f - u||^2 + ||grad u||^2 with f by the assembly's rule and u the P1 field given to
+    !> assemble_dual_hdiv (0 without): the data part of E of (1.10), for a stopping criterion
+    real(dp) :: data_sq = 0.0_dp
   end type hdiv_system_t
 
 contains
@@ -107,19 +114,21 @@ contains
   end function hdiv_local_coefficients
 
   !> Assemble the condensed system: element matrices (exact) and vectors (f with `rule`),
-  !> interior unknowns eliminated per triangle.  Out of memory: DS_ERR_MEMORY in st
+  !> interior unknowns eliminated per triangle; sys%data_sq from the same values of f and
+  !> the P1 field u (optional, nnode; 0 without).  Out of memory: DS_ERR_MEMORY in st
   !> (without st the program stops, see dualsig_alloc).
-  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st)
+  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st, u)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(hdiv_system_t), intent(out) :: sys
     type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: u(:)
     integer, allocatable :: cliques(:,:)
     type(tri_rule_t) :: exact_rule
     type(rt1_geometry_t) :: g
     real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), se(rt1_nside, rt1_nside), ce(rt1_nside)
-    real(dp) :: sgn(rt1_nside)
+    real(dp) :: sgn(rt1_nside), fq(rule%n), ue(3)
     integer :: t, i, dofs(rt1_nside), ist
     allocate (cliques(rt1_nside, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 element unknowns', rt1_nside * mesh%ntri, BYTES_INT)) return
@@ -133,9 +142,13 @@ contains
                      BYTES_REAL)) return
     sys%b = 0.0_dp
     exact_rule = tri_rule(rt1_matrix_degree)
+    ue = 0.0_dp
     do t = 1, mesh%ntri
       g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
-      call rt1_element(g, f, rule, exact_rule, ae, be)
+      call rt1_element(g, f, rule, exact_rule, ae, be, fq)
+      if (present(u)) ue = u(mesh%tri(:, t))
+      sys%data_sq = sys%data_sq + g%area * (sum(matmul(g%grad, ue)**2) &
+                    + sum(rule%w * (fq - matmul(ue, rule%bary))**2))
       call rt1_condense(ae, be, se, ce, sys%rec_k(:, :, t), sys%rec_d(:, t))
       sys%shift = sys%shift - 0.5_dp * dot_product(be(7:8), sys%rec_d(:, t))
       call hdiv_side_dofs(mesh, t, dofs, sgn)
@@ -244,25 +257,30 @@ contains
   !> The prolongation of side unknowns from coarse to its uniform refinement fine, as a
   !> (2 fine%nedge) x (2 coarse%nedge) matrix p: the coarse field of side unknowns xs with
   !> its interior unknowns -rec_k xs (the homogeneous condensation of the coarse level,
-  !> hdiv_system_t%rec_k), prolongated as in hdiv_prolongate, side unknowns kept.
+  !> hdiv_system_t%rec_k), prolongated as in hdiv_prolongate, side unknowns kept.  A row
+  !> depends on the 6 side unknowns of the parent triangle; built row by row in place
+  !> (columns sorted), without the entries that vanish exactly (a fine edge inside a coarse
+  !> side sees only that side's 2 unknowns: the others have zero normal trace there, and
+  !> their computed values, rounding of 0, are below prolongation_zero).
   !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
   subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p, st)
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: rec_k(:,:,:)
     type(rect_t), intent(out) :: p
     type(status_t), intent(inout) :: st
-    integer, allocatable :: rows(:), cols(:)
-    real(dp), allocatable :: vals(:)
     type(rt1_geometry_t) :: gc
     real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), d(2), w(rt1_nbasis), sgn(rt1_nside)
-    integer :: tf, tc, k, e, j, n, cdofs(rt1_nside), i, ist
-    allocate (rows(12 * fine%nedge), cols(12 * fine%nedge), vals(12 * fine%nedge), stat=ist)
-    if (alloc_failed(ist, st, 'the RT1 prolongation', 48 * fine%nedge, BYTES_INT)) return
-    n = 0
+    real(dp) :: v(rt1_nside)
+    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), i, row, ist
+    p%m = 2 * fine%nedge
+    p%n = 2 * coarse%nedge
+    allocate (p%rowptr(p%m + 1), p%col(rt1_nside * p%m), p%val(rt1_nside * p%m), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 prolongation', (3 * rt1_nside + 1) * p%m, BYTES_INT)) return
     do tf = 1, fine%ntri
       tc = (tf + 3) / 4
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
       call hdiv_side_dofs(coarse, tc, cdofs, sgn)
+      order = sorted_order(cdofs)
       do k = 1, 3
         e = fine%tri_edge(k, tf)
         if (fine%edge_tri(1, e) /= tf) cycle
@@ -272,16 +290,55 @@ contains
           call rt1_values(gc, barycentric(gc, fine%xy(:, fine%edge_nodes(j, e))), psi, dpsi)
           w = matmul(nu, psi)
           do i = 1, rt1_nside
-            n = n + 1
-            rows(n) = 2 * e - 2 + j
-            cols(n) = cdofs(i)
-            vals(n) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
+            v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
           end do
+          row = 2 * e - 2 + j
+          p%col(rt1_nside * (row - 1) + 1:rt1_nside * row) = cdofs(order)
+          p%val(rt1_nside * (row - 1) + 1:rt1_nside * row) = v(order)
         end do
       end do
     end do
-    call rect_from_triplets(2 * fine%nedge, 2 * coarse%nedge, rows(1:n), cols(1:n), vals(1:n), p, st)
+    call drop_exact_zeros(p)
   end subroutine hdiv_prolongation_matrix
+
+  !> The permutation that sorts the 6 distinct integers c increasingly (insertion sort).
+  pure function sorted_order(c) result(order)
+    integer, intent(in) :: c(rt1_nside)
+    integer :: order(rt1_nside)
+    integer :: i, j, o
+    order = [(i, i = 1, rt1_nside)]
+    do i = 2, rt1_nside
+      o = order(i)
+      j = i - 1
+      do while (j >= 1)
+        if (c(order(j)) <= c(o)) exit
+        order(j + 1) = order(j)
+        j = j - 1
+      end do
+      order(j + 1) = o
+    end do
+  end function sorted_order
+
+  !> Compact p (rt1_nside entries per row, stored at 6 (row-1) + 1 ..) to its entries above
+  !> prolongation_zero times the largest of their row; sets p%rowptr.
+  pure subroutine drop_exact_zeros(p)
+    type(rect_t), intent(inout) :: p
+    integer :: row, i, q, nnz
+    real(dp) :: big
+    nnz = 0
+    p%rowptr(1) = 1
+    do row = 1, p%m
+      q = rt1_nside * (row - 1)
+      big = maxval(abs(p%val(q + 1:q + rt1_nside)))
+      do i = q + 1, q + rt1_nside
+        if (.not. abs(p%val(i)) > prolongation_zero * big) cycle
+        nnz = nnz + 1
+        p%col(nnz) = p%col(i)
+        p%val(nnz) = p%val(i)
+      end do
+      p%rowptr(row + 1) = nnz + 1
+    end do
+  end subroutine drop_exact_zeros
 
   !> Barycentric coordinates of the point p in the triangle of g.
   pure function barycentric(g, p) result(bary)

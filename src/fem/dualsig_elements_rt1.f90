@@ -96,30 +96,48 @@ contains
   !> Element matrix ae (Gram matrix of ||q||^2 + ||div q||^2) and vector
   !> be_i = -(f, div psi_i) (f at the points of `rule`) of the functional (3.1').
   !> exact_rule must have degree >= rt1_matrix_degree (e.g. tri_rule(rt1_matrix_degree)):
-  !> then ae is exact.
-  subroutine rt1_element(g, f, rule, exact_rule, ae, be)
+  !> then ae is exact.  When `rule` itself has that degree, ae is integrated with it (one
+  !> evaluation of the basis per point, the same exact values).  fq (optional, rule%n): the
+  !> values of f at the points of `rule`.
+  subroutine rt1_element(g, f, rule, exact_rule, ae, be, fq)
     type(rt1_geometry_t), intent(in) :: g
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule, exact_rule
     real(dp), intent(out) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis)
-    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), p(2), w
-    integer :: q, i
+    real(dp), intent(out), optional :: fq(:)
+    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), p(2), w, fp
+    integer :: q
+    logical :: shared
+    shared = rule%degree >= rt1_matrix_degree
     ae = 0.0_dp
-    do q = 1, exact_rule%n
-      call rt1_values(g, exact_rule%bary(:, q), psi, dpsi)
-      w = g%area * exact_rule%w(q)
-      do i = 1, rt1_nbasis
-        ae(:, i) = ae(:, i) + w * (psi(1, i) * psi(1, :) + psi(2, i) * psi(2, :) + dpsi(i) * dpsi)
-      end do
-    end do
-    ae = 0.5_dp * (ae + transpose(ae))
     be = 0.0_dp
     do q = 1, rule%n
       call rt1_values(g, rule%bary(:, q), psi, dpsi)
+      w = g%area * rule%w(q)
       p = matmul(g%xy, rule%bary(:, q))
-      be = be - g%area * rule%w(q) * f%value(p(1), p(2)) * dpsi
+      fp = f%value(p(1), p(2))
+      if (present(fq)) fq(q) = fp
+      be = be - w * fp * dpsi
+      if (shared) call add_gram(w, psi, dpsi, ae)
     end do
+    if (.not. shared) then
+      do q = 1, exact_rule%n
+        call rt1_values(g, exact_rule%bary(:, q), psi, dpsi)
+        call add_gram(g%area * exact_rule%w(q), psi, dpsi, ae)
+      end do
+    end if
+    ae = 0.5_dp * (ae + transpose(ae))
   end subroutine rt1_element
+
+  !> ae = ae + w (psi_i . psi_j + dpsi_i dpsi_j): one quadrature point of the Gram matrix.
+  pure subroutine add_gram(w, psi, dpsi, ae)
+    real(dp), intent(in) :: w, psi(2, rt1_nbasis), dpsi(rt1_nbasis)
+    real(dp), intent(inout) :: ae(rt1_nbasis, rt1_nbasis)
+    integer :: i
+    do i = 1, rt1_nbasis
+      ae(:, i) = ae(:, i) + w * (psi(1, i) * psi(1, :) + psi(2, i) * psi(2, :) + dpsi(i) * dpsi)
+    end do
+  end subroutine add_gram
 
   !> Static condensation of the two interior unknowns x_I (free): with the blocks of ae
   !> and be on the side (S) and interior (I) unknowns,

@@ -77,7 +77,14 @@ module dualsig_patch_schwarz
     real(dp) :: last_decrease = 0.0_dp   !! J decrease of the last step
     real(dp) :: j_value = 0.0_dp         !! J at the returned x
     real(dp) :: j_start = 0.0_dp         !! J at the start
+    !> decrease of the last step over that of the step before (0 after fewer than 2 steps)
+    real(dp) :: step_ratio = 0.0_dp
+    logical :: predicted_stop = .false.  !! stopped on the predicted next decrease
   end type pcg_result_t
+
+  !> pcg_quadratic: the predicted next decrease is the last one times this multiple of the
+  !> caller's ratio (a margin for its variation between levels).
+  real(dp), parameter :: ratio_margin = 3.0_dp
 
 contains
 
@@ -411,9 +418,13 @@ contains
 
   !> Preconditioned CG (the V-cycle of h) for min J(x) = 1/2 x^T A x - b^T x, A the finest
   !> matrix of h, over the unknowns with free(i); the others keep their values in x.  Stops
-  !> when the decrease of J in a step is at most rel (J(x) - j_floor), or after max_iter
-  !> steps (converged false).  h has at least two levels.  Out of memory: DS_ERR_MEMORY in st.
-  subroutine pcg_quadratic(h, b, free, j_floor, rel, max_iter, x, res, st)
+  !> when the decrease of J in a step is at most rel (J(x) - j_floor), or, with ratio > 0
+  !> (the step_ratio of an earlier solve with the same kind of preconditioner, e.g. the
+  !> previous level's: the V-cycle's contraction does not depend on h), when the NEXT
+  !> step's decrease predicted as ratio_margin ratio times this one's is (saves the
+  !> V-cycle of a step that would gain almost nothing), or after max_iter steps
+  !> (converged false).  h has at least two levels.  Out of memory: DS_ERR_MEMORY in st.
+  subroutine pcg_quadratic(h, b, free, j_floor, rel, max_iter, x, res, st, ratio)
     type(mg_hierarchy_t), intent(inout) :: h
     real(dp), intent(in) :: b(:)
     logical, intent(in) :: free(:)
@@ -422,6 +433,7 @@ contains
     real(dp), intent(inout) :: x(:)
     type(pcg_result_t), intent(out) :: res
     type(status_t), intent(inout) :: st
+    real(dp), intent(in), optional :: ratio
     real(dp), allocatable :: r(:), p(:), ap(:)
     real(dp) :: rz, rz_new, alpha, beta, pap, jx
     integer :: k, nf, ist
@@ -450,11 +462,19 @@ contains
       x = x + alpha * p
       r = r - alpha * ap
       res%iterations = k
+      if (k > 1) res%step_ratio = 0.5_dp * alpha * rz / res%last_decrease
       res%last_decrease = 0.5_dp * alpha * rz
       jx = jx - res%last_decrease
       if (res%last_decrease <= rel * (jx - j_floor)) then
         res%converged = .true.
         exit
+      end if
+      if (present(ratio)) then
+        if (ratio > 0.0_dp .and. ratio_margin * ratio * res%last_decrease <= rel * (jx - j_floor)) then
+          res%converged = .true.
+          res%predicted_stop = .true.
+          exit
+        end if
       end if
       if (k == max_iter) exit
       h%lev(nf)%r = r

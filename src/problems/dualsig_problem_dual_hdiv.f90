@@ -65,6 +65,8 @@ module dualsig_problem_dual_hdiv
     real(dp), allocatable :: rec_k(:,:,:)    !! the last level's condensation (hdiv_system_t%rec_k)
     type(rect_t) :: p_next                   !! after a refinement: the prolongation of side unknowns
     logical :: ready = .false.               !! q and p_next belong to the current mesh
+    !> the last measured ratio of consecutive CG decreases (pcg_result_t%step_ratio; 0: none)
+    real(dp) :: cg_ratio = 0.0_dp
   end type hdiv_nested_t
 
   !> Start value of a bounded unknown predicted free (contact: q.nu > 0 expected).
@@ -106,7 +108,7 @@ contains
         '"; expected active_set, uzawa or nested')
       return
     end if
-    call assemble_dual_hdiv(mesh, f, rule, sys, st)
+    call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal)
     if (.not. is_ok(st)) return
     n = sys%a%n
     call dual_hdiv_bound_kinds(mesh, kind, st)
@@ -122,7 +124,7 @@ contains
     else if (trim(settings%method) == 'nested' .and. present(nest)) then
       if (nest%ready) then
         xs = nest%q(1:n)
-        call solve_nested(mesh, f, rule, sys, kind, settings, nest, xs, res, st, u_primal)
+        call solve_nested(mesh, sys, kind, settings, nest, xs, res, st, u_primal)
       else
         ! the first level: solved exactly, the coarsest level of the hierarchy
         call dual_hdiv_nested_free(nest)
@@ -236,10 +238,8 @@ contains
 
   !> The inexact solve of method 'nested' from the start xs (see the module header); the
   !> level joins the hierarchy of nest.
-  subroutine solve_nested(mesh, f, rule, sys, kind, settings, nest, xs, res, st, u_primal)
+  subroutine solve_nested(mesh, sys, kind, settings, nest, xs, res, st, u_primal)
     type(mesh_t), intent(in) :: mesh
-    class(field_t), intent(in) :: f
-    type(tri_rule_t), intent(in) :: rule
     type(hdiv_system_t), intent(inout) :: sys
     integer, intent(in) :: kind(:)
     type(dual_p1_settings_t), intent(in) :: settings
@@ -258,7 +258,7 @@ contains
     free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
     if (present(u_primal)) call complementarity_prediction(mesh, u_primal, xs, free)
     xs0 = xs
-    j_floor = nested_floor(mesh, f, rule, sys, u_primal)
+    j_floor = nested_floor(sys)
     ! vertex patches of all side unknowns (the held ones are taken out by mg_hold)
     call vertex_patches(mesh, kind == kind, ptr, idx, st=st)
     if (.not. is_ok(st)) return
@@ -269,8 +269,9 @@ contains
     call mg_hold(nest%mg, free, st)
     if (.not. is_ok(st)) return
     call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
-                       min(settings%max_iter, nested_max_iter), xs, pres, st)
+                       min(settings%max_iter, nested_max_iter), xs, pres, st, ratio=nest%cg_ratio)
     if (.not. is_ok(st)) return
+    if (pres%step_ratio > 0.0_dp) nest%cg_ratio = pres%step_ratio
     res%iterations = pres%iterations
     res%converged = pres%converged
     res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
@@ -364,28 +365,11 @@ contains
 
   !> j_floor with est(xs) = 2 (J(xs) - j_floor), J(xs) = 1/2 xs^T S xs - c^T xs: by (1.10),
   !> E(q, u~) = F(q) - 2 (f, u~) + ||u~||_1^2 with F(q) = 2 I(q) + ||f||^2, so
-  !> est = 2 (J + shift) + ||f - u~||^2 + ||grad u~||^2; f by `rule` (a stopping criterion,
-  !> not a bound).  u~ = 0 without u_primal.
-  real(dp) function nested_floor(mesh, f, rule, sys, u_primal) result(j_floor)
-    type(mesh_t), intent(in) :: mesh
-    class(field_t), intent(in) :: f
-    type(tri_rule_t), intent(in) :: rule
+  !> est = 2 (J + shift) + ||f - u~||^2 + ||grad u~||^2 (sys%data_sq, f by the assembly's
+  !> rule: a stopping criterion, not a bound).  u~ = 0 without u_primal.
+  pure real(dp) function nested_floor(sys) result(j_floor)
     type(hdiv_system_t), intent(in) :: sys
-    real(dp), intent(in), optional :: u_primal(:)
-    real(dp) :: grad(2, 3), area, ue(3), p(2), s
-    integer :: t, q
-    s = 0.0_dp
-    ue = 0.0_dp
-    do t = 1, mesh%ntri
-      call p1_gradients(mesh%xy(:, mesh%tri(:, t)), grad, area)
-      if (present(u_primal)) ue = u_primal(mesh%tri(:, t))
-      s = s + area * sum(matmul(grad, ue)**2)
-      do q = 1, rule%n
-        p = matmul(mesh%xy(:, mesh%tri(:, t)), rule%bary(:, q))
-        s = s + area * rule%w(q) * (f%value(p(1), p(2)) - dot_product(rule%bary(:, q), ue))**2
-      end do
-    end do
-    j_floor = -sys%shift - 0.5_dp * s
+    j_floor = -sys%shift - 0.5_dp * sys%data_sq
   end function nested_floor
 
   !> The paper's Uzawa algorithm (Section 3) on the condensed system with B = the rows
