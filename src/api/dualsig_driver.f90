@@ -163,6 +163,8 @@ contains
       call check_output_writable(runs(r), st)
       if (st%code /= 0) return
     end do
+    call check_distinct_outputs(runs, st)
+    if (st%code /= 0) return
     do r = 1, size(runs)
       call run_one(runs(r), st_run, out)
       if (.not. is_ok(st_run)) then
@@ -1282,14 +1284,7 @@ contains
     integer :: k
     logical :: is_dir
     txt_path = trim(cfg%output) // '.txt'
-    k = index(txt_path, '/', back=.true.)
-    if (k == 0) then
-      dir = '.'
-    else if (k == 1) then
-      dir = '/'
-    else
-      dir = txt_path(1:k - 1)
-    end if
+    dir = dir_of(txt_path, index(txt_path, '/', back=.true.))
     where = cfg%source_file // ': run of line ' // itoa(cfg%line) // ": &run output = '" // &
       trim(cfg%output) // "': "
     call ensure_parent_dir(txt_path, st)
@@ -1315,6 +1310,50 @@ contains
     end if
     call text_abandon(probe)
   end subroutine check_output_writable
+
+  !> Two runs of a batch must not have the same output: the later run would replace the
+  !> earlier one's files.  The same name in the same directory (the directories exist after
+  !> check_output_writable; compared by same_file, so 'out/x' and './out/x' are the same).
+  subroutine check_distinct_outputs(runs, st)
+    type(run_config_t), intent(in) :: runs(:)
+    type(status_t), intent(inout) :: st
+    integer :: r, s
+    do r = 2, size(runs)
+      do s = 1, r - 1
+        if (.not. same_output(runs(s)%output, runs(r)%output)) cycle
+        call set_error(st, DS_ERR_INPUT, runs(r)%source_file // ': run of line ' // itoa(runs(r)%line) // &
+          ": &run output = '" // trim(runs(r)%output) // "' is also the output of the run of line " // &
+          itoa(runs(s)%line) // ' (expected a different output name for every run of a batch: ' // &
+          "the later run would replace the earlier one's files)")
+        return
+      end do
+    end do
+  end subroutine check_distinct_outputs
+
+  !> True when the output names a and b give the same files: the same last component in
+  !> the same directory.
+  logical function same_output(a, b)
+    character(len=*), intent(in) :: a, b
+    integer :: ka, kb
+    ka = index(trim(a), '/', back=.true.)
+    kb = index(trim(b), '/', back=.true.)
+    same_output = trim(a(ka + 1:)) == trim(b(kb + 1:))
+    if (same_output) same_output = same_file(dir_of(a, ka), dir_of(b, kb))
+  end function same_output
+
+  !> The directory part of the output name `name` whose last '/' is at k ('.' without one).
+  function dir_of(name, k) result(dir)
+    character(len=*), intent(in) :: name
+    integer, intent(in) :: k
+    character(len=:), allocatable :: dir
+    if (k == 0) then
+      dir = '.'
+    else if (k == 1) then
+      dir = '/'
+    else
+      dir = name(1:k - 1)
+    end if
+  end function dir_of
 
   !> An output file of run cfg (the tables, the ParaView series, the final mesh) must not be
   !> one of its input files (the namelist file, the mesh file, f_file): writing it would
