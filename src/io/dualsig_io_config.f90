@@ -628,7 +628,7 @@ contains
     integer, allocatable :: assign_line(:)
     character(len=64) :: name
     character(len=256) :: msg
-    integer :: a, ios, width, ist
+    integer :: a, b, ios, width, ist
     type(run_config_t) :: probe
     call split_assignments(grp, assign_text, assign_line, st)
     if (st%code /= 0) then
@@ -653,6 +653,13 @@ contains
           '; expected one of: ' // items)
         return
       end if
+      do b = 1, a - 1
+        if (assignment_target(assign(b)) /= assignment_target(assign(a))) cycle
+        call set_error(st, DS_ERR_INPUT, trim(path) // ': &' // trim(grp%name) // ', line ' // &
+          itoa(assign_line(a)) // ': "' // assignment_target(assign(a)) // '" is given twice (also on line ' // &
+          itoa(assign_line(b)) // '; expected each variable once per group)')
+        return
+      end do
       if (grp%name == 'run' .and. name == 'scene') cfg%scene_given = .true.
     end do
     call read_group(grp%name, assign, cfg, ios, msg)
@@ -1386,6 +1393,20 @@ contains
       s = 'an integer'
     end select
   end function expected_type
+
+  !> The target of the assignment a: what stands before its '=' (name and subscript),
+  !> without blanks, in lower case ('Levels =' and 'levels=' are the same target).
+  pure function assignment_target(a) result(target)
+    character(len=*), intent(in) :: a
+    character(len=:), allocatable :: target
+    integer :: k, eq
+    eq = index(a, '=')
+    target = ''
+    do k = 1, eq - 1
+      if (a(k:k) /= ' ') target = target // a(k:k)
+    end do
+    target = lower(target)
+  end function assignment_target
 
   pure function assignment_name(a) result(name)
     character(len=*), intent(in) :: a
