@@ -33,7 +33,7 @@ module dualsig_assembly_dual_hdiv
 
   public :: hdiv_system_t, hdiv_nside_dofs, hdiv_nfield, hdiv_side_dofs, hdiv_local_coefficients, &
             assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, hdiv_point_value, &
-            hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
+            hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongate_interior, hdiv_prolongation_matrix
 
   !> Relative size below which an entry of the prolongation is a rounded zero: the exact
   !> values are O(1) multiples of the row's largest, the rounded zeros O(eps) of it.
@@ -214,9 +214,8 @@ contains
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: xc(:)
     real(dp), intent(out) :: xf(:)
-    type(rt1_geometry_t) :: gc, gf
-    real(dp) :: c(rt1_nbasis), cf(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), d(2), q(2)
-    real(dp) :: m(2, 2), det
+    type(rt1_geometry_t) :: gc
+    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2)
     integer :: tf, tc, k, e, j, n
     xf = 0.0_dp
     do tf = 1, fine%ntri
@@ -226,9 +225,7 @@ contains
       do k = 1, 3
         e = fine%tri_edge(k, tf)
         if (fine%edge_tri(1, e) /= tf) cycle
-        ! outward normal of tf on its side k (counter-clockwise), the edge's nu_e
-        d = fine%xy(:, fine%tri(mod(k, 3) + 1, tf)) - fine%xy(:, fine%tri(k, tf))
-        nu = [d(2), -d(1)] / hypot(d(1), d(2))
+        nu = side_normal(fine, tf, k)
         do j = 1, 2
           n = fine%edge_nodes(j, e)
           call rt1_values(gc, barycentric(gc, fine%xy(:, n)), psi, dpsi)
@@ -236,23 +233,47 @@ contains
         end do
       end do
     end do
+    call hdiv_prolongate_interior(coarse, fine, xc, xf)
+  end subroutine hdiv_prolongate
+
+  !> The interior unknowns of hdiv_prolongate: xf's side unknowns given, the interior ones
+  !> matched to the coarse field xc at the centroid of every fine triangle.
+  pure subroutine hdiv_prolongate_interior(coarse, fine, xc, xf)
+    type(mesh_t), intent(in) :: coarse, fine
+    real(dp), intent(in) :: xc(:)
+    real(dp), intent(inout) :: xf(:)
+    type(rt1_geometry_t) :: gc, gf
+    real(dp) :: cf(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), q(2)
+    real(dp) :: m(2, 2), det
+    integer :: tf, tc, n
     do tf = 1, fine%ntri
       tc = (tf + 3) / 4
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
       gf = rt1_geometry(fine%xy(:, fine%tri(:, tf)))
       call rt1_values(gc, barycentric(gc, sum(gf%xy, dim=2) / 3.0_dp), psi, dpsi)
       q = matmul(psi, hdiv_local_coefficients(coarse, xc, tc))
+      n = 2 * fine%nedge + 2 * tf
+      xf(n - 1:n) = 0.0_dp
       cf = hdiv_local_coefficients(fine, xf, tf)
       call rt1_values(gf, [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp, psi, dpsi)
       ! q - (side part) = c7 psi_7 + c8 psi_8 at the centroid: a 2x2 system
       q = q - matmul(psi(:, 1:6), cf(1:6))
       m = psi(:, 7:8)
       det = m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1)
-      n = 2 * fine%nedge + 2 * tf
       xf(n - 1) = (m(2, 2) * q(1) - m(1, 2) * q(2)) / det
       xf(n) = (m(1, 1) * q(2) - m(2, 1) * q(1)) / det
     end do
-  end subroutine hdiv_prolongate
+  end subroutine hdiv_prolongate_interior
+
+  !> The outward unit normal of triangle t of mesh on its side k (a_k a_{k+1},
+  !> counter-clockwise): the nu_e of the edge when t = edge_tri(1, e).
+  pure function side_normal(mesh, t, k) result(nu)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: t, k
+    real(dp) :: nu(2), d(2)
+    d = mesh%xy(:, mesh%tri(mod(k, 3) + 1, t)) - mesh%xy(:, mesh%tri(k, t))
+    nu = [d(2), -d(1)] / hypot(d(1), d(2))
+  end function side_normal
 
   !> The prolongation of side unknowns from coarse to its uniform refinement fine, as a
   !> (2 fine%nedge) x (2 coarse%nedge) matrix p: the coarse field of side unknowns xs with
@@ -262,15 +283,20 @@ contains
   !> (columns sorted), without the entries that vanish exactly (a fine edge inside a coarse
   !> side sees only that side's 2 unknowns: the others have zero normal trace there, and
   !> their computed values, rounding of 0, are below prolongation_zero).
-  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
-  subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p, st)
+  !> With xc (hdiv_nfield of coarse) and xf (of fine): also the side unknowns of
+  !> hdiv_prolongate of xc in xf, from the same basis values (hdiv_prolongate_interior
+  !> completes xf).  Out of memory: DS_ERR_MEMORY in st (without st the program stops, see
+  !> dualsig_alloc).
+  subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p, st, xc, xf)
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: rec_k(:,:,:)
     type(rect_t), intent(out) :: p
     type(status_t), intent(inout) :: st
+    real(dp), intent(in), optional :: xc(:)
+    real(dp), intent(inout), optional :: xf(:)
     type(rt1_geometry_t) :: gc
-    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), d(2), w(rt1_nbasis), sgn(rt1_nside)
-    real(dp) :: v(rt1_nside)
+    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), w(rt1_nbasis), sgn(rt1_nside)
+    real(dp) :: v(rt1_nside), c(rt1_nbasis)
     integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), i, row, ist
     p%m = 2 * fine%nedge
     p%n = 2 * coarse%nedge
@@ -281,14 +307,15 @@ contains
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
       call hdiv_side_dofs(coarse, tc, cdofs, sgn)
       order = sorted_order(cdofs)
+      if (present(xc)) c = hdiv_local_coefficients(coarse, xc, tc)
       do k = 1, 3
         e = fine%tri_edge(k, tf)
         if (fine%edge_tri(1, e) /= tf) cycle
-        d = fine%xy(:, fine%tri(mod(k, 3) + 1, tf)) - fine%xy(:, fine%tri(k, tf))
-        nu = [d(2), -d(1)] / hypot(d(1), d(2))
+        nu = side_normal(fine, tf, k)
         do j = 1, 2
           call rt1_values(gc, barycentric(gc, fine%xy(:, fine%edge_nodes(j, e))), psi, dpsi)
           w = matmul(nu, psi)
+          if (present(xc) .and. present(xf)) xf(2 * e - 2 + j) = dot_product(w, c)
           do i = 1, rt1_nside
             v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
           end do

@@ -361,8 +361,7 @@ contains
       p = list(ip)
       b = ps%ptr(p)
       e = ps%ptr(p + 1) - 1
-      ps%idx(b:e) = [pack(ps%idx(b:e), .not. held(ps%idx(b:e))), pack(ps%idx(b:e), held(ps%idx(b:e)))]
-      m = count(.not. held(ps%idx(b:e)))
+      call partition_held(ps%idx(b:e), held, m)
       ps%nact(p) = m
       if (m == 0) cycle
       do k = 1, m
@@ -386,6 +385,26 @@ contains
       end if
     end do
   end subroutine factor_patches
+
+  !> Reorder the unknowns `list` so that those not held come first (stable), m of them.
+  pure subroutine partition_held(list, held, m)
+    integer, intent(inout) :: list(:)
+    logical, intent(in) :: held(:)
+    integer, intent(out) :: m
+    integer :: buf(size(list)), k, nh
+    m = 0
+    nh = 0
+    do k = 1, size(list)
+      if (held(list(k))) then
+        nh = nh + 1
+        buf(nh) = list(k)
+      else
+        m = m + 1
+        list(m) = list(k)
+      end if
+    end do
+    list(m + 1:) = buf(1:nh)
+  end subroutine partition_held
 
   !> Cholesky factor L (packed lower, column by column) of the SPD block blk; ierr /= 0
   !> when a pivot is not positive.

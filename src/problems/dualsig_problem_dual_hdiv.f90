@@ -46,7 +46,7 @@ module dualsig_problem_dual_hdiv
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_assembly_dual_hdiv, only: hdiv_system_t, assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, &
-                                        hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongation_matrix
+                                        hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate_interior, hdiv_prolongation_matrix
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
@@ -222,10 +222,10 @@ contains
     integer :: ist
     allocate (q_next(hdiv_nfield(fine)), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated RT1 field', hdiv_nfield(fine), BYTES_REAL)) return
-    call hdiv_prolongate(coarse, fine, nest%q, q_next)
-    call move_alloc(q_next, nest%q)
-    call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st)
+    call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st, nest%q, q_next)
     if (.not. is_ok(st)) return
+    call hdiv_prolongate_interior(coarse, fine, nest%q, q_next)
+    call move_alloc(q_next, nest%q)
     nest%ready = .true.
   end subroutine dual_hdiv_nested_refine
 
@@ -327,21 +327,26 @@ contains
   end subroutine complementarity_prediction
 
   !> The vertex patches of the free side unknowns: for every node, the free unknowns of
-  !> the edges at it (both ends of each edge).
+  !> the edges at it (both ends of each edge); the patches in the order of the nodes along
+  !> a Z-order (Morton) curve, so that consecutive patches share unknowns and matrix rows
+  !> (cache locality of the sweeps).
   subroutine vertex_patches(mesh, free, ptr, idx, st)
     type(mesh_t), intent(in) :: mesh
     logical, intent(in) :: free(:)
     integer, allocatable, intent(out) :: ptr(:), idx(:)
     type(status_t), intent(inout) :: st
-    integer, allocatable :: fill(:)
-    integer :: e, j, v, i, ist
-    allocate (ptr(mesh%nnode + 1), stat=ist)
-    if (alloc_failed(ist, st, 'the vertex patches', mesh%nnode + 1, BYTES_INT)) return
+    integer, allocatable :: fill(:), order(:), rank(:)
+    integer :: e, j, v, i, ist, p
+    call z_order(mesh, order, st)
+    if (.not. is_ok(st)) return
+    allocate (rank(mesh%nnode), ptr(mesh%nnode + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the vertex patches', 2 * mesh%nnode + 1, BYTES_INT)) return
+    rank(order) = [(p, p = 1, mesh%nnode)]
     ptr = 0
     do e = 1, mesh%nedge
       do j = 1, 2
-        v = mesh%edge_nodes(j, e)
-        ptr(v + 1) = ptr(v + 1) + count(free(2 * e - 1:2 * e))
+        p = rank(mesh%edge_nodes(j, e))
+        ptr(p + 1) = ptr(p + 1) + count(free(2 * e - 1:2 * e))
       end do
     end do
     ptr(1) = 1
@@ -353,15 +358,55 @@ contains
     fill = ptr(1:mesh%nnode)
     do e = 1, mesh%nedge
       do j = 1, 2
-        v = mesh%edge_nodes(j, e)
+        p = rank(mesh%edge_nodes(j, e))
         do i = 2 * e - 1, 2 * e
           if (.not. free(i)) cycle
-          idx(fill(v)) = i
-          fill(v) = fill(v) + 1
+          idx(fill(p)) = i
+          fill(p) = fill(p) + 1
         end do
       end do
     end do
   end subroutine vertex_patches
+
+  !> The nodes of mesh along a Z-order curve: sorted by the Morton index of their cell in a
+  !> 2^k x 2^k grid over the bounding box (about 4 nodes per cell; counting sort).
+  subroutine z_order(mesh, order, st)
+    type(mesh_t), intent(in) :: mesh
+    integer, allocatable, intent(out) :: order(:)
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: key(:), start(:)
+    real(dp) :: lo(2), span(2)
+    integer :: k, ncell, v, ix, iy, b, m, ist
+    k = 1
+    do while (4**(k + 1) <= max(1, mesh%nnode / 4) .and. k < 14)
+      k = k + 1
+    end do
+    ncell = 4**k
+    allocate (key(mesh%nnode), start(ncell + 1), order(mesh%nnode), stat=ist)
+    if (alloc_failed(ist, st, 'the node order of the vertex patches', 2 * mesh%nnode + ncell + 1, BYTES_INT)) return
+    lo = minval(mesh%xy, dim=2)
+    span = max(maxval(mesh%xy, dim=2) - lo, tiny(1.0_dp))
+    start = 0
+    do v = 1, mesh%nnode
+      ix = min(int((mesh%xy(1, v) - lo(1)) / span(1) * 2**k), 2**k - 1)
+      iy = min(int((mesh%xy(2, v) - lo(2)) / span(2) * 2**k), 2**k - 1)
+      m = 0
+      do b = 0, k - 1
+        m = ior(m, ishft(iand(ishft(ix, -b), 1), 2 * b))
+        m = ior(m, ishft(iand(ishft(iy, -b), 1), 2 * b + 1))
+      end do
+      key(v) = m + 1
+      start(m + 2) = start(m + 2) + 1
+    end do
+    start(1) = 1
+    do m = 1, ncell
+      start(m + 1) = start(m + 1) + start(m)
+    end do
+    do v = 1, mesh%nnode
+      order(start(key(v))) = v
+      start(key(v)) = start(key(v)) + 1
+    end do
+  end subroutine z_order
 
   !> j_floor with est(xs) = 2 (J(xs) - j_floor), J(xs) = 1/2 xs^T S xs - c^T xs: by (1.10),
   !> E(q, u~) = F(q) - 2 (f, u~) + ||u~||_1^2 with F(q) = 2 I(q) + ||f||^2, so
