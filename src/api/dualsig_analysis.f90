@@ -1206,12 +1206,25 @@ contains
     dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
     res%dual_method = an%dual_method
     res%dual_space = an%settings%dual_space
+    ! the load data first (the bounds need it): the RT1 dual takes f from it, exactly
+    if (an%settings%bounds) then
+      call level_load_data(an, load, res, st)
+      if (.not. is_ok(st)) return
+    end if
     res%dual_seconds = wall_seconds()
     if (hdiv .and. an%dual_method == 'nested') then
       ! from level 2 on, from the previous level's field (prolongated by analysis_next_level)
       if (an%nest%ready) res%dual_seconds = res%dual_seconds - an%prolong_seconds
+      if (an%settings%bounds) then
+        call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u, &
+                             nest=an%nest, load=load)
+      else
+        call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u, &
+                             nest=an%nest)
+      end if
+    else if (hdiv .and. an%settings%bounds) then
       call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u, &
-                           nest=an%nest)
+                           load=load)
     else if (hdiv) then
       call dual_hdiv_solve(an%mesh, an%problem%f, an%load_rule, dset, q, res%dual_p1, st_dual, u_primal=an%u)
     else
@@ -1231,8 +1244,6 @@ contains
       end if
     end if
     if (.not. an%settings%bounds) return
-    call level_load_data(an, load, res, st)
-    if (.not. is_ok(st)) return
     call p1_bounds_level(an, q, load, hdiv, res, bounds, st)
     if (.not. is_ok(st)) return
     res%est = bounds%est

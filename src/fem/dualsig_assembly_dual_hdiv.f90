@@ -27,6 +27,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside
   use dualsig_status, only: status_t
+  use dualsig_load_data, only: load_data_t
   use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
@@ -48,8 +49,8 @@ module dualsig_assembly_dual_hdiv
     !> I(q) of (3.1') for the side unknowns xs (interior recovered) is
     !> 1/2 xs^T a xs - b^T xs + shift (shift = -1/2 sum_T b_I^T A_II^{-1} b_I of the condensation)
     real(dp) :: shift = 0.0_dp
-    !> ||f - u||^2 + ||grad u||^2 with f by the assembly's rule and u the P1 field given to
-    !> assemble_dual_hdiv (0 without): the data part of E of (1.10), for a stopping criterion
+    !> ||f - u||^2 + ||grad u||^2 with u the P1 field given to assemble_dual_hdiv (0
+    !> without) and f as there: the data part of E of (1.10), for a stopping criterion
     real(dp) :: data_sq = 0.0_dp
   end type hdiv_system_t
 
@@ -113,23 +114,27 @@ contains
     c(7:8) = x(2 * mesh%nedge + 2 * t - 1:2 * mesh%nedge + 2 * t)
   end function hdiv_local_coefficients
 
-  !> Assemble the condensed system: element matrices (exact) and vectors (f with `rule`),
-  !> interior unknowns eliminated per triangle; sys%data_sq from the same values of f and
-  !> the P1 field u (optional, nnode; 0 without).  Out of memory: DS_ERR_MEMORY in st
-  !> (without st the program stops, see dualsig_alloc).
-  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st, u)
+  !> Assemble the condensed system: element matrices (exact) and vectors, interior unknowns
+  !> eliminated per triangle; sys%data_sq with the P1 field u (optional, nnode; 0 without).
+  !> f enters through its values at the points of `rule`: with `load` (optional, the load
+  !> data of f on mesh) those of Pi_1 f, so that be = -(f, div psi_i) is exact (div psi_i
+  !> is linear) and ||f - u||^2 = osc_T^2 + ||Pi_1 f - u||^2 too, without evaluating f;
+  !> without it f itself.  Out of memory: DS_ERR_MEMORY in st (without st the program
+  !> stops, see dualsig_alloc).
+  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st, u, load)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
     type(hdiv_system_t), intent(out) :: sys
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: u(:)
+    type(load_data_t), intent(in), optional :: load
     integer, allocatable :: cliques(:,:)
     type(tri_rule_t) :: exact_rule
     type(rt1_geometry_t) :: g
     real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), se(rt1_nside, rt1_nside), ce(rt1_nside)
-    real(dp) :: sgn(rt1_nside), fq(rule%n), ue(3)
-    integer :: t, i, dofs(rt1_nside), ist
+    real(dp) :: sgn(rt1_nside), fq(rule%n), ue(3), p(2), centroid(2), osc_sq
+    integer :: t, i, q, dofs(rt1_nside), ist
     allocate (cliques(rt1_nside, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 element unknowns', rt1_nside * mesh%ntri, BYTES_INT)) return
     do t = 1, mesh%ntri
@@ -143,11 +148,22 @@ contains
     sys%b = 0.0_dp
     exact_rule = tri_rule(rt1_matrix_degree)
     ue = 0.0_dp
+    osc_sq = 0.0_dp
     do t = 1, mesh%ntri
       g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
-      call rt1_element(g, f, rule, exact_rule, ae, be, fq)
+      centroid = sum(g%xy, dim=2) / 3.0_dp
+      do q = 1, rule%n
+        p = matmul(g%xy, rule%bary(:, q))
+        if (present(load)) then
+          fq(q) = load%mean(t) + dot_product(load%slope(:, t), p - centroid)
+        else
+          fq(q) = f%value(p(1), p(2))
+        end if
+      end do
+      if (present(load)) osc_sq = load%osc(t)**2
+      call rt1_element(g, fq, rule, exact_rule, ae, be)
       if (present(u)) ue = u(mesh%tri(:, t))
-      sys%data_sq = sys%data_sq + g%area * (sum(matmul(g%grad, ue)**2) &
+      sys%data_sq = sys%data_sq + osc_sq + g%area * (sum(matmul(g%grad, ue)**2) &
                     + sum(rule%w * (fq - matmul(ue, rule%bary))**2))
       call rt1_condense(ae, be, se, ce, sys%rec_k(:, :, t), sys%rec_d(:, t))
       sys%shift = sys%shift - 0.5_dp * dot_product(be(7:8), sys%rec_d(:, t))

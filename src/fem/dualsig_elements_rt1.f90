@@ -24,11 +24,11 @@
 !>
 !> Element matrices of the dual functional (3.1'): ae = Gram matrix of ||q||^2 + ||div q||^2
 !> (integrands of degree 4, integrated exactly by Radon's degree-5 rule) and
-!> be_i = -(f, div psi_i) (f by the caller's rule).  The two interior unknowns are
-!> eliminated element by element (static condensation, exact: they are free).
+!> be_i = -(f, div psi_i) (from the caller's values of f at the rule's points).  The two
+!> interior unknowns are eliminated element by element (static condensation, exact: they
+!> are free).
 module dualsig_elements_rt1
   use dualsig_kinds, only: dp
-  use dualsig_fields, only: field_t
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_elements_p1, only: p1_gradients
   implicit none
@@ -94,18 +94,17 @@ contains
   end subroutine rt1_values
 
   !> Element matrix ae (Gram matrix of ||q||^2 + ||div q||^2) and vector
-  !> be_i = -(f, div psi_i) (f at the points of `rule`) of the functional (3.1').
+  !> be_i = -(f, div psi_i) with the values fq of f at the points of `rule` (exact when f is
+  !> linear on the triangle, e.g. Pi_1 f, and rule%degree >= 2) of the functional (3.1').
   !> exact_rule must have degree >= rt1_matrix_degree (e.g. tri_rule(rt1_matrix_degree)):
   !> then ae is exact.  When `rule` itself has that degree, ae is integrated with it (one
-  !> evaluation of the basis per point, the same exact values).  fq (optional, rule%n): the
-  !> values of f at the points of `rule`.
-  subroutine rt1_element(g, f, rule, exact_rule, ae, be, fq)
+  !> evaluation of the basis per point, the same exact values).
+  pure subroutine rt1_element(g, fq, rule, exact_rule, ae, be)
     type(rt1_geometry_t), intent(in) :: g
-    class(field_t), intent(in) :: f
+    real(dp), intent(in) :: fq(:)
     type(tri_rule_t), intent(in) :: rule, exact_rule
     real(dp), intent(out) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis)
-    real(dp), intent(out), optional :: fq(:)
-    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), p(2), w, fp
+    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), w
     integer :: q
     logical :: shared
     shared = rule%degree >= rt1_matrix_degree
@@ -114,10 +113,7 @@ contains
     do q = 1, rule%n
       call rt1_values(g, rule%bary(:, q), psi, dpsi)
       w = g%area * rule%w(q)
-      p = matmul(g%xy, rule%bary(:, q))
-      fp = f%value(p(1), p(2))
-      if (present(fq)) fq(q) = fp
-      be = be - w * fp * dpsi
+      be = be - w * fq(q) * dpsi
       if (shared) call add_gram(w, psi, dpsi, ae)
     end do
     if (.not. shared) then

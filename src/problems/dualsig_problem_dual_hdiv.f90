@@ -51,6 +51,7 @@ module dualsig_problem_dual_hdiv
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
+  use dualsig_load_data, only: load_data_t
   use dualsig_sparse, only: csr_matvec
   implicit none
   private
@@ -81,11 +82,12 @@ contains
 
   !> Solve the RT1 dual problem on `mesh` and return the FEASIBLE field x (hdiv_nfield:
   !> side unknowns, then interior ones): q.nu >= 0 at both ends of every boundary edge.
-  !> f is integrated with `rule` in the load vector.  u_primal (optional, nnode): the primal
+  !> f is integrated with `rule` in the load vector, or enters through its load data `load`
+  !> (optional: exact, see assemble_dual_hdiv).  u_primal (optional, nnode): the primal
   !> solution, for the first active set (complementarity) and the start.  st carries
   !> DS_WARN_NOT_CONVERGED when the iteration limit was reached (x is still feasible).
   !> sys_out (optional) returns the condensed system (for tests).
-  recursive subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out, nest)
+  recursive subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out, nest, load)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
@@ -96,6 +98,7 @@ contains
     real(dp), intent(in), optional :: u_primal(:)
     type(hdiv_system_t), intent(out), optional :: sys_out
     type(hdiv_nested_t), intent(inout), optional :: nest   !! 'nested': the state between levels
+    type(load_data_t), intent(in), optional :: load        !! the load data of f: f enters through it
     type(hdiv_system_t) :: sys
     integer, allocatable :: kind(:)
     real(dp), allocatable :: xs(:), zero(:), pts(:,:)
@@ -108,7 +111,7 @@ contains
         '"; expected active_set, uzawa or nested')
       return
     end if
-    call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal)
+    call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal, load)
     if (.not. is_ok(st)) return
     n = sys%a%n
     call dual_hdiv_bound_kinds(mesh, kind, st)
@@ -129,7 +132,7 @@ contains
         ! the first level: solved exactly, the coarsest level of the hierarchy
         call dual_hdiv_nested_free(nest)
         call dual_hdiv_solve(mesh, f, rule, dual_p1_settings_t(method='active_set', max_iter=settings%max_iter, &
-                             ordering=settings%ordering), x, res, st, u_primal)
+                             ordering=settings%ordering), x, res, st, u_primal, load=load)
         if (.not. is_ok(st)) return
         nest%rec_k = sys%rec_k
         call mg_add_level(nest%mg, sys%a, nest%p_next, [1], [integer ::], kind == BOUND_LOWER, st)
