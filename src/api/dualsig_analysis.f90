@@ -23,8 +23,8 @@ module dualsig_analysis
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_exact_boundary, only: exact_boundary_check
-  use dualsig_kinds, only: geom_rel_tol
-  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_triangle_area, mesh_move, mesh_release_adjacency, &
+  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_move, mesh_release_adjacency, &
+                          mesh_longest_side, mesh_coordinate_scale, &
                           mesh_ensure_adjacency
   use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
@@ -99,9 +99,12 @@ module dualsig_analysis
   integer, parameter :: ADAPT_GOING = 0, ADAPT_STOP_TOL = 1, ADAPT_STOP_NDOF = 2, ADAPT_STOP_SECONDS = 3, &
                         ADAPT_STOP_STEPS = 4
   integer, parameter :: adapt_max_steps = 99
-  !> Triangles with an area below this times geom_rel_tol diameter^2 (the zero-area test of
-  !> mesh_build_topology) are not marked: their children could fail that test.
-  real(dp), parameter :: adapt_area_floor = 1.0e3_dp
+  !> A triangle whose longest side is at most this times eps times the coordinate scale
+  !> (mesh_coordinate_scale) is not marked: the midpoint of such a side is known to about
+  !> 1e-6 of its length, and its children's shapes no longer to the zero-area tolerance
+  !> (mesh_zero_area, relative to each triangle, is met by every child of a bisection
+  !> above this size: newest-vertex bisection keeps the shapes of the coarse mesh).
+  real(dp), parameter :: adapt_side_floor = 1.0e6_dp
   !> The step that should reach tol aims at it (analysis_aim_growth): the unknowns the
   !> observed rate p of sqrt(est) ~ ndof^(-p) asks for, times adapt_aim_margin (a step
   !> short of tol costs a whole further step, one past it only its excess); p is taken at
@@ -292,7 +295,7 @@ module dualsig_analysis
     !> adaptive: the growth of the unknowns this step aimed at to reach tol
     !> (analysis_aim_growth; 0: Doerfler's set as it is)
     real(dp) :: aim_growth = 0.0_dp
-    integer :: nheld = 0                    !! adaptive: triangles not marked: at the area floor (adapt_area_floor)
+    integer :: nheld = 0                    !! adaptive: triangles not marked: at the size floor (adapt_side_floor)
     integer :: max_depth = 0                !! adaptive: most bisections from a coarse triangle
     ! warnings of this level (codes DS_WARN_*, messages without the level)
     integer :: nwarnings = 0
@@ -557,9 +560,9 @@ contains
     call phase_event(an, an%level + 1, 'refine', .false., 0.0_dp)
     ! Doerfler's criterion among the triangles that can still be bisected in double precision
     eta2 = an%est_elem
-    floor = adapt_area_floor * geom_rel_tol * mesh_diameter(an%mesh)**2
+    floor = adapt_side_floor * epsilon(1.0_dp) * mesh_coordinate_scale(an%mesh)
     do t = 1, an%mesh%ntri
-      if (mesh_triangle_area(an%mesh, t) < floor .and. eta2(t) > 0.0_dp) then
+      if (mesh_longest_side(an%mesh, t) <= floor .and. eta2(t) > 0.0_dp) then
         eta2(t) = 0.0_dp
         res%nheld = res%nheld + 1
       end if
@@ -636,7 +639,7 @@ contains
       if (res%nmarked == 0) then
         call set_error(st, DS_ERR_INPUT, 'analysis: adaptive step ' // itoa(an%level + 1) // ': no triangle to ' // &
           'mark (every indicator is zero, or ' // itoa(res%nheld) // ' triangle(s) with positive ones are at the ' // &
-          'area floor of double precision)')
+          'size floor of double precision)')
         return
       end if
       call mesh_refine_marked(an%mesh, marked, finer, parents, st)

@@ -1057,7 +1057,7 @@ contains
         head = [character(len=500) :: head, line]
         line = 'adaptive: smallest angle over all steps ' // rtoa(run%min_angle) // ' deg; refine_s = marking, ' // &
           'bisection and transfer of u_h; estimate_s = dual solve and bounds; elapsed_s = since the start; ' // &
-          'nheld = triangles left unmarked at the area floor of double precision'
+          'nheld = triangles left unmarked at the size floor of double precision'
         head = [character(len=500) :: head, line]
         line = 'adaptive: the marks are Doerfler''s set extended by the largest indicators until a step''s new ' // &
           'nodes reach (min_growth - 1) ndof, min_growth = ' // rtoa(cfg%adapt_min_growth) // ' (a target: a few ' // &

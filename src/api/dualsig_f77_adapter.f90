@@ -8,11 +8,12 @@
 module dualsig_f77_adapter
   use, intrinsic :: iso_fortran_env, only: output_unit
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-  use dualsig_kinds, only: dp, geom_rel_tol
+  use dualsig_kinds, only: dp
   use dualsig_status, only: status_t, is_ok, DS_OK
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
-  use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter, mesh_move
+  use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_move, mesh_zero_area, &
+                          mesh_coordinate_scale
   use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_sparse_direct, only: ORDERING_BEST, ORDERING_AMD, ORDERING_METIS, ORDERING_NATURAL, ORDERING_GEOMETRIC
   use dualsig_fields, only: scalar_field, function_field
@@ -262,7 +263,7 @@ contains
     logical, allocatable, intent(out) :: flipped(:)
     integer, intent(out) :: arg
     character(len=:), allocatable, intent(out) :: msg
-    real(dp) :: area_tol
+    real(dp) :: scale
     integer :: t, nnode, nflip, ist
     type(status_t) :: st
     arg = 0
@@ -274,7 +275,7 @@ contains
     mesh%xy(:, :) = xy
     mesh%tri(:, :) = itri
     flipped = .false.
-    area_tol = geom_rel_tol * mesh_diameter(mesh)**2
+    scale = mesh_coordinate_scale(mesh)
     do t = 1, mesh%ntri
       arg = 5
       if (any(itri(:, t) < 1 .or. itri(:, t) > nnode)) then
@@ -285,7 +286,7 @@ contains
         msg = 'triangle ' // itoa(t) // ' repeats a vertex'
         return
       end if
-      if (abs(mesh_triangle_area(mesh, t)) <= area_tol) then
+      if (abs(mesh_triangle_area(mesh, t)) <= mesh_zero_area(mesh, t, scale)) then
         msg = 'triangle ' // itoa(t) // ' has zero area (collinear vertices)'
         return
       end if

@@ -21,7 +21,8 @@
 !>   most 1e100.  Node, triangle and boundary ids must be 1, 2, 3, ... in order.
 !> - Node indices n1, n2, n3 refer to node ids (1..N).  Two nodes whose coordinates agree
 !>   within geom_rel_tol times the bounding-box diameter (in both x and y) are rejected as
-!>   duplicates; triangles with |area| <= geom_rel_tol * diameter**2 are rejected.
+!>   duplicates; triangles with |area| <= mesh_zero_area (geom_rel_tol times the square of
+!>   the triangle's longest side, or the rounding of its area) are rejected.
 !> - The triangles are all counter-clockwise, or all clockwise: then every one is reoriented
 !>   by swapping n2 and n3, and the reader reports how many (optional argument `nflipped`;
 !>   the caller decides whether to print a note).  A mix of orientations is a folded mesh
@@ -48,7 +49,8 @@ module dualsig_mesh_io
   use, intrinsic :: iso_fortran_env, only: iostat_end, iostat_eor
   use dualsig_kinds, only: dp, i8, geom_rel_tol
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH, DS_ERR_IO
-  use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area
+  use dualsig_mesh, only: mesh_t, mesh_build_topology, mesh_diameter, mesh_triangle_area, mesh_zero_area, &
+                          mesh_coordinate_scale
   use dualsig_mesh_check, only: mesh_orient_triangles, mesh_check_duplicates, mesh_check_geometry
   use dualsig_strings, only: itoa, i8toa
   use dualsig_io_files, only: input_file_ok
@@ -1084,7 +1086,7 @@ contains
 
   !> Geometric checks of a mesh read from file `path` (nodes and triangles set) before its
   !> topology: no two nodes within geom_rel_tol * diameter in x and y, no triangle with
-  !> |area| <= geom_rel_tol * diameter**2, no triangle twice (mesh_check_duplicates), and
+  !> |area| <= mesh_zero_area, no triangle twice (mesh_check_duplicates), and
   !> one orientation (mesh_orient_triangles): all
   !> triangles counter-clockwise, or all clockwise (then all are swapped, nflip counts
   !> them); a mix is a folded mesh and an error naming the first inverted triangle.
@@ -1102,16 +1104,17 @@ contains
     character(len=*), intent(in), optional :: tri_path
     type(reader_t) :: rd
     integer :: i, id, bad_tri
-    real(dp) :: area, area_tol
+    real(dp) :: area, area_tol, scale
 
     nflip = 0
     rd%path = path
     call check_duplicate_nodes(rd, mesh, node_line, st, node_id)
     if (st%code /= 0) return
     if (present(tri_path)) rd%path = tri_path
-    area_tol = geom_rel_tol * mesh_diameter(mesh)**2
+    scale = mesh_coordinate_scale(mesh)
     do i = 1, mesh%ntri
       area = mesh_triangle_area(mesh, i)
+      area_tol = mesh_zero_area(mesh, i, scale)
       if (abs(area) <= area_tol) then
         id = i
         if (present(tri_id)) id = tri_id(i)

@@ -19,8 +19,13 @@ module dualsig_mesh
   implicit none
   private
 
-  public :: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter, mesh_h
+  public :: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter, mesh_h, mesh_zero_area, &
+            mesh_coordinate_scale, mesh_longest_side
   public :: mesh_move, mesh_release_adjacency, mesh_ensure_adjacency
+
+  !> Rounding of a triangle's area (a cross product of coordinate differences) in units of
+  !> eps * coordinate scale * side (mesh_zero_area).
+  real(dp), parameter :: area_rounding = 64.0_dp
 
   !> (mesh_move moves every allocatable component: a new component must be added there too.)
   type :: mesh_t
@@ -82,6 +87,38 @@ contains
     c = mesh%xy(:, mesh%tri(3, t))
     area = 0.5_dp * ((b(1) - a(1)) * (c(2) - a(2)) - (c(1) - a(1)) * (b(2) - a(2)))
   end function mesh_triangle_area
+
+  !> The area at or below which triangle t counts as degenerate (no orientation): the
+  !> larger of geom_rel_tol times the square of its longest side (a shape criterion, the
+  !> same for the children of a uniform refinement, which are similar to their parent)
+  !> and the rounding of the area's cross product for coordinates of size `scale`
+  !> (mesh_coordinate_scale) and sides of that length.
+  pure real(dp) function mesh_zero_area(mesh, t, scale) result(z)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: t
+    real(dp), intent(in) :: scale
+    real(dp) :: h
+    h = mesh_longest_side(mesh, t)
+    z = max(geom_rel_tol * h**2, area_rounding * epsilon(1.0_dp) * scale * h)
+  end function mesh_zero_area
+
+  !> The longest side of triangle t.
+  pure real(dp) function mesh_longest_side(mesh, t) result(h)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: t
+    integer :: k
+    h = 0.0_dp
+    do k = 1, 3
+      h = max(h, norm2(mesh%xy(:, mesh%tri(mod(k, 3) + 1, t)) - mesh%xy(:, mesh%tri(k, t))))
+    end do
+  end function mesh_longest_side
+
+  !> The largest coordinate magnitude of the nodes (the scale of their rounding).
+  pure real(dp) function mesh_coordinate_scale(mesh) result(r)
+    type(mesh_t), intent(in) :: mesh
+    r = 0.0_dp
+    if (mesh%nnode > 0) r = maxval(abs(mesh%xy(:, 1:mesh%nnode)))
+  end function mesh_coordinate_scale
 
   !> Diameter of the bounding box of the nodes (the length scale for geometric tolerances).
   pure real(dp) function mesh_diameter(mesh) result(d)
@@ -148,13 +185,13 @@ contains
   end subroutine mesh_build_topology
 
   !> Check the triangle list: enough nodes and triangles, vertex indices in range, and
-  !> every area above the tolerance (counter-clockwise vertices).
+  !> every area above its tolerance mesh_zero_area (counter-clockwise vertices).
   subroutine check_triangles(mesh, st, bad)
     type(mesh_t), intent(in) :: mesh
     type(status_t), intent(inout) :: st
     type(culprit_t), intent(inout) :: bad
     integer :: t
-    real(dp) :: area_tol
+    real(dp) :: scale
     character(len=320) :: buf
 
     if (mesh%nnode < 3 .or. mesh%ntri < 1) then
@@ -169,9 +206,9 @@ contains
       bad%tri = t
       return
     end if
-    area_tol = geom_rel_tol * mesh_diameter(mesh)**2
+    scale = mesh_coordinate_scale(mesh)
     do t = 1, mesh%ntri
-      if (mesh_triangle_area(mesh, t) <= area_tol) then
+      if (mesh_triangle_area(mesh, t) <= mesh_zero_area(mesh, t, scale)) then
         write (buf, '(a,i0,a)') 'mesh: triangle ', t, &
           ' has zero or negative area (expected counter-clockwise vertices)'
         call set_error(st, DS_ERR_MESH, trim(buf))

@@ -19,7 +19,8 @@
 !>   overlapping triangles whose orientations agree, e.g. after inverted triangles were
 !>   reoriented one by one.  Linear in the number of triangles.
 !>
-!> Zero-area triangles (|area| <= geom_rel_tol * diameter**2) have no orientation here;
+!> Zero-area triangles (|area| <= mesh_zero_area: relative to the triangle's own longest
+!> side, so the children of a valid triangle are valid) have no orientation here;
 !> mesh_build_topology and the readers reject them.  Messages start with 'mesh: ' and name
 !> the triangle and its nodes, by the optional tri_id / node_id maps when given (the ids of
 !> a file), and what was expected; `bad_tri` (optional) returns the triangle's number in
@@ -28,7 +29,7 @@ module dualsig_mesh_check
   use dualsig_kinds, only: dp, geom_rel_tol, area_sum_rel_tol
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_MESH
   use dualsig_strings, only: itoa
-  use dualsig_mesh, only: mesh_t, mesh_triangle_area, mesh_diameter
+  use dualsig_mesh, only: mesh_t, mesh_triangle_area, mesh_diameter, mesh_zero_area, mesh_coordinate_scale
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   implicit none
   private
@@ -54,15 +55,15 @@ contains
     type(status_t), intent(inout) :: st
     integer, intent(out), optional :: bad_tri
     integer, intent(in), optional :: tri_id(:), node_id(:)
-    real(dp), allocatable :: area(:)
+    real(dp), allocatable :: area(:), zero(:)
     integer :: t, nccw, ncw
 
     nflipped = 0
     if (present(bad_tri)) bad_tri = 0
-    call signed_areas(mesh, area, st)
+    call signed_areas(mesh, area, zero, st)
     if (.not. is_ok(st)) return
-    ncw = count(area < -zero_area(mesh))
-    nccw = count(area > zero_area(mesh))
+    ncw = count(area < -zero)
+    nccw = count(area > zero)
     if (ncw == 0) return
     if (nccw == 0) then
       do t = 1, mesh%ntri
@@ -71,7 +72,7 @@ contains
       nflipped = ncw
       return
     end if
-    call report_mixed(mesh, area < -zero_area(mesh), area > zero_area(mesh), naming_of(tri_id, node_id), st, bad_tri)
+    call report_mixed(mesh, area < -zero, area > zero, naming_of(tri_id, node_id), st, bad_tri)
   end subroutine mesh_orient_triangles
 
   !> Error for the first triangle whose three vertices another triangle listed before it
@@ -131,7 +132,7 @@ contains
     integer, intent(out), optional :: bad_tri
     integer, intent(in), optional :: tri_id(:), node_id(:)
     type(naming_t) :: nm
-    real(dp), allocatable :: area(:)
+    real(dp), allocatable :: area(:), zero(:)
     integer :: bad
 
     bad = 0
@@ -142,11 +143,11 @@ contains
     else
       call mesh_check_duplicates(mesh, st, bad, tri_id, node_id)
     end if
-    if (st%code == 0) call signed_areas(mesh, area, st)
+    if (st%code == 0) call signed_areas(mesh, area, zero, st)
     if (st%code == 0) then
       ! (the topology admits only counter-clockwise triangles: the coordinates changed since?)
-      if (any(.not. (area > zero_area(mesh)))) &
-        call report_mixed(mesh, .not. (area > zero_area(mesh)), area > zero_area(mesh), nm, st, bad)
+      if (any(.not. (area > zero))) &
+        call report_mixed(mesh, .not. (area > zero), area > zero, nm, st, bad)
     end if
     if (st%code == 0) call check_one_piece(mesh, nm, st, bad)
     if (st%code == 0) call check_loops(mesh, st)
@@ -354,23 +355,20 @@ contains
   ! ------------------------------------------------------------------ helpers
 
   !> Signed area of every triangle.
-  subroutine signed_areas(mesh, area, st)
+  subroutine signed_areas(mesh, area, zero, st)
     type(mesh_t), intent(in) :: mesh
-    real(dp), allocatable, intent(out) :: area(:)
+    real(dp), allocatable, intent(out) :: area(:), zero(:)
     type(status_t), intent(inout) :: st
     integer :: t, ist
-    allocate (area(mesh%ntri), stat=ist)
-    if (alloc_failed(ist, st, 'the triangle areas', mesh%ntri, BYTES_REAL)) return
+    real(dp) :: scale
+    allocate (area(mesh%ntri), zero(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the triangle areas', 2 * mesh%ntri, BYTES_REAL)) return
+    scale = mesh_coordinate_scale(mesh)
     do t = 1, mesh%ntri
       area(t) = mesh_triangle_area(mesh, t)
+      zero(t) = mesh_zero_area(mesh, t, scale)
     end do
   end subroutine signed_areas
-
-  !> Areas of at most this magnitude have no orientation (geom_rel_tol * diameter**2).
-  pure real(dp) function zero_area(mesh)
-    type(mesh_t), intent(in) :: mesh
-    zero_area = geom_rel_tol * mesh_diameter(mesh)**2
-  end function zero_area
 
   !> The naming of the optional id maps.
   function naming_of(tri_id, node_id) result(nm)
