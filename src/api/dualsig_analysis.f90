@@ -100,10 +100,10 @@ module dualsig_analysis
                         ADAPT_STOP_STEPS = 4
   integer, parameter :: adapt_max_steps = 99
   !> A triangle whose longest side is at most this times eps times the coordinate scale
-  !> (mesh_coordinate_scale) is not marked: the midpoint of such a side is known to about
-  !> 1e-6 of its length, and its children's shapes no longer to the zero-area tolerance
-  !> (mesh_zero_area, relative to each triangle, is met by every child of a bisection
-  !> above this size: newest-vertex bisection keeps the shapes of the coarse mesh).
+  !> (mesh_coordinate_scale) is not marked: below it a bisection's midpoint is known to
+  !> less than about 1e-6 of the side.  Above it every child of a bisection meets the
+  !> zero-area test (mesh_zero_area is relative to each triangle, and newest-vertex
+  !> bisection keeps the shapes of the coarse mesh).
   real(dp), parameter :: adapt_side_floor = 1.0e6_dp
   !> The step that should reach tol aims at it (analysis_aim_growth): the unknowns the
   !> observed rate p of sqrt(est) ~ ndof^(-p) asks for, times adapt_aim_margin (a step

@@ -481,7 +481,7 @@ contains
       x = x + alpha * p
       r = r - alpha * ap
       res%iterations = k
-      if (k > 1) res%step_ratio = 0.5_dp * alpha * rz / res%last_decrease
+      if (k > 1 .and. res%last_decrease > 0.0_dp) res%step_ratio = 0.5_dp * alpha * rz / res%last_decrease
       res%last_decrease = 0.5_dp * alpha * rz
       jx = jx - res%last_decrease
       if (res%last_decrease <= rel * (jx - j_floor)) then

@@ -344,7 +344,9 @@ contains
     if (.not. is_ok(st)) return
     allocate (rank(mesh%nnode), ptr(mesh%nnode + 1), stat=ist)
     if (alloc_failed(ist, st, 'the vertex patches', 2 * mesh%nnode + 1, BYTES_INT)) return
-    rank(order) = [(p, p = 1, mesh%nnode)]
+    do p = 1, mesh%nnode
+      rank(order(p)) = p
+    end do
     ptr = 0
     do e = 1, mesh%nedge
       do j = 1, 2
