@@ -23,7 +23,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t
+  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, sort_row_by_column
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside
   use dualsig_status, only: status_t
@@ -313,7 +313,7 @@ contains
     type(rt1_geometry_t) :: gc
     real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), w(rt1_nbasis), sgn(rt1_nside)
     real(dp) :: v(rt1_nside), c(rt1_nbasis)
-    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), i, row, ist
+    integer :: tf, tc, k, e, j, cdofs(rt1_nside), i, row, ist
     p%m = 2 * fine%nedge
     p%n = 2 * coarse%nedge
     allocate (p%rowptr(p%m + 1), p%col(rt1_nside * p%m), p%val(rt1_nside * p%m), stat=ist)
@@ -322,7 +322,6 @@ contains
       tc = (tf + 3) / 4
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
       call hdiv_side_dofs(coarse, tc, cdofs, sgn)
-      order = sorted_order(cdofs)
       if (present(xc)) c = hdiv_local_coefficients(coarse, xc, tc)
       do k = 1, 3
         e = fine%tri_edge(k, tf)
@@ -336,31 +335,15 @@ contains
             v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
           end do
           row = 2 * e - 2 + j
-          p%col(rt1_nside * (row - 1) + 1:rt1_nside * row) = cdofs(order)
-          p%val(rt1_nside * (row - 1) + 1:rt1_nside * row) = v(order)
+          p%col(rt1_nside * (row - 1) + 1:rt1_nside * row) = cdofs
+          p%val(rt1_nside * (row - 1) + 1:rt1_nside * row) = v
+          call sort_row_by_column(p%col(rt1_nside * (row - 1) + 1:rt1_nside * row), &
+                                  p%val(rt1_nside * (row - 1) + 1:rt1_nside * row))
         end do
       end do
     end do
     call drop_exact_zeros(p)
   end subroutine hdiv_prolongation_matrix
-
-  !> The permutation that sorts the 6 distinct integers c increasingly (insertion sort).
-  pure function sorted_order(c) result(order)
-    integer, intent(in) :: c(rt1_nside)
-    integer :: order(rt1_nside)
-    integer :: i, j, o
-    order = [(i, i = 1, rt1_nside)]
-    do i = 2, rt1_nside
-      o = order(i)
-      j = i - 1
-      do while (j >= 1)
-        if (c(order(j)) <= c(o)) exit
-        order(j + 1) = order(j)
-        j = j - 1
-      end do
-      order(j + 1) = o
-    end do
-  end function sorted_order
 
   !> Compact p (rt1_nside entries per row, stored at 6 (row-1) + 1 ..) to its entries above
   !> prolongation_zero times the largest of their row; sets p%rowptr.

@@ -12,7 +12,7 @@ module dualsig_sparse
 
   public :: csr_t, csr_pattern_from_edges, csr_pattern_from_cliques, csr_add, csr_add_block, &
             csr_get, csr_matvec, csr_is_symmetric, csr_nnz, csr_set_row_pattern, sort_small_ints
-  public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t
+  public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t, sort_row_by_column
 
   type :: csr_t
     integer :: n = 0                     !! number of rows = number of columns
@@ -208,9 +208,8 @@ contains
     real(dp), intent(in) :: val(:)
     type(rect_t), intent(out) :: b
     type(status_t), intent(out) :: st
-    integer :: k, i, p, q, tmp_c, ist
+    integer :: k, i, p, ist
     integer, allocatable :: fill(:)
-    real(dp) :: tmp_v
     b%m = m
     b%n = n
     allocate (b%rowptr(m + 1), fill(m), b%col(size(row)), b%val(size(row)), stat=ist)
@@ -231,21 +230,30 @@ contains
       fill(row(k)) = fill(row(k)) + 1
     end do
     do i = 1, m                             ! sort each short row by column
-      do p = b%rowptr(i) + 1, b%rowptr(i + 1) - 1
-        tmp_c = b%col(p)
-        tmp_v = b%val(p)
-        q = p - 1
-        do while (q >= b%rowptr(i))
-          if (b%col(q) <= tmp_c) exit
-          b%col(q + 1) = b%col(q)
-          b%val(q + 1) = b%val(q)
-          q = q - 1
-        end do
-        b%col(q + 1) = tmp_c
-        b%val(q + 1) = tmp_v
-      end do
+      call sort_row_by_column(b%col(b%rowptr(i):b%rowptr(i + 1) - 1), b%val(b%rowptr(i):b%rowptr(i + 1) - 1))
     end do
   end subroutine rect_from_triplets
+
+  !> Sort the entries (col, val) of a short row by column (insertion sort, stable).
+  pure subroutine sort_row_by_column(col, val)
+    integer, intent(inout) :: col(:)
+    real(dp), intent(inout) :: val(:)
+    integer :: p, q, tmp_c
+    real(dp) :: tmp_v
+    do p = 2, size(col)
+      tmp_c = col(p)
+      tmp_v = val(p)
+      q = p - 1
+      do while (q >= 1)
+        if (col(q) <= tmp_c) exit
+        col(q + 1) = col(q)
+        val(q + 1) = val(q)
+        q = q - 1
+      end do
+      col(q + 1) = tmp_c
+      val(q + 1) = tmp_v
+    end do
+  end subroutine sort_row_by_column
 
   !> w = B y  (w of size m).
   pure subroutine rect_matvec(b, y, w)
