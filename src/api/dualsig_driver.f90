@@ -280,6 +280,9 @@ contains
     if (cfg%method /= 'psor' .and. (cfg%omega_auto .or. cfg%omega /= 1.0_dp)) write (unit, '(a)') 'note: ' // &
       run%where // ": &solver omega / omega_auto apply to method = 'psor' only; ignored with method = '" // &
       trim(cfg%method) // "' (the default is 'auto')"
+    if (len(mesh_items_ignored(cfg, defaults)) > 0) write (unit, '(a)') 'note: ' // run%where // &
+      ': &mesh ' // mesh_items_ignored(cfg, defaults) // " not used by source = '" // trim(cfg%mesh_source) // &
+      "' (ignored)"
     if (cfg%adapt_enabled .and. cfg%levels /= defaults%levels) write (unit, '(a)') 'note: ' // &
       run%where // ': &mesh levels = ' // itoa(cfg%levels) // ' is ignored by an adaptive run (&adapt ' // &
       'enabled: its steps end at tol, max_ndof, max_seconds or ' // itoa(adapt_max_steps) // ' steps)'
@@ -1310,6 +1313,30 @@ contains
     end if
     call text_abandon(probe)
   end subroutine check_output_writable
+
+  !> The &mesh items given (different from their defaults) that the mesh source does not
+  !> use, as 'x0, nx' ('' when none): the generator's box and counts for a file or the
+  !> L-shape, n for the rectangle, file and format for the generators.
+  function mesh_items_ignored(cfg, defaults) result(s)
+    type(run_config_t), intent(in) :: cfg, defaults
+    character(len=:), allocatable :: s
+    logical :: box, count_n, file
+    box = trim(cfg%mesh_source) /= 'rectangle'
+    count_n = trim(cfg%mesh_source) == 'rectangle' .or. trim(cfg%mesh_source) == 'file'
+    file = trim(cfg%mesh_source) /= 'file'
+    s = ''
+    if (box .and. cfg%x0 /= defaults%x0) s = s // ', x0'
+    if (box .and. cfg%x1 /= defaults%x1) s = s // ', x1'
+    if (box .and. cfg%y0 /= defaults%y0) s = s // ', y0'
+    if (box .and. cfg%y1 /= defaults%y1) s = s // ', y1'
+    if (box .and. cfg%nx /= defaults%nx) s = s // ', nx'
+    if (box .and. cfg%ny /= defaults%ny) s = s // ', ny'
+    if (box .and. cfg%pattern /= defaults%pattern) s = s // ', pattern'
+    if (count_n .and. cfg%n /= defaults%n) s = s // ', n'
+    if (file .and. cfg%mesh_file /= defaults%mesh_file) s = s // ', file'
+    if (file .and. cfg%mesh_format /= defaults%mesh_format) s = s // ', format'
+    if (len(s) > 0) s = s(3:)
+  end function mesh_items_ignored
 
   !> Two runs of a batch must not have the same output: the later run would replace the
   !> earlier one's files.  The same name in the same directory (the directories exist after
