@@ -93,6 +93,10 @@ module dualsig_analysis
   !> Smallest est and energy_hi that are certified (check_representable_bounds): below it an
   !> error of relative size epsilon is below the smallest normal number.
   real(dp), parameter :: representable_floor = tiny(1.0_dp) / epsilon(1.0_dp)
+  !> check_exact_solution: a certified level whose error against u_exact exceeds the
+  !> guaranteed bound, err^2 > (1 + exact_consistency_tol) est, refutes u_exact.  The margin
+  !> covers the quadrature of err (u_exact is not a polynomial; est needs no margin).
+  real(dp), parameter :: exact_consistency_tol = 1.0e-2_dp
   !> Why an adaptive loop stops (analysis_adapt_stop): not yet; the certified relative error
   !> reached tol; max_ndof unknowns reached; the next step would end after max_seconds; the
   !> largest number of steps (adapt_max_steps, the two digits of the .vtu names).
@@ -262,6 +266,9 @@ module dualsig_analysis
     logical :: has_exact = .false.
     real(dp) :: err_energy = 0.0_dp         !! energy norm of u - u_h: ||.||_1 (P1), |.|_1 (P2)
     real(dp) :: err_l2 = 0.0_dp
+    !> the level's bound refuted u_exact (check_exact_solution): the error columns of every
+    !> level are meaningless, and the level ends with DS_ERR_INPUT
+    logical :: exact_refuted = .false.
     ! dual analysis (has_dual)
     logical :: has_dual = .false.
     character(len=16) :: dual_method = ''
@@ -939,8 +946,37 @@ contains
       end if
       if (is_ok(st)) call check_finite_results(an%level, res, st)
       if (is_ok(st)) call check_representable_bounds(an, res)
+      if (is_ok(st)) call check_exact_solution(an%level, pb%kind, res, st)
     end associate
   end subroutine solve_level
+
+  !> The error of u_h against the given exact solution can never exceed a certified bound:
+  !> ||u - u_h||^2 <= est (6.13) for P1, |u - u_h|_1^2 <= est (6.26) for P2, for the
+  !> solution u of the problem posed.  A certified level with err^2 > (1 +
+  !> exact_consistency_tol) est therefore proves that u_exact is not that solution (its
+  !> boundary conditions were checked by exact_boundary_check, so f and u_exact disagree, or
+  !> u_exact is singular between the nodes): DS_ERR_INPUT, since its error columns and eff
+  !> would be meaningless.
+  subroutine check_exact_solution(level, kind, res, st)
+    integer, intent(in) :: level
+    integer, intent(in) :: kind              !! PROBLEM_P1 or PROBLEM_P2
+    type(level_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    character(len=:), allocatable :: pde
+    if (.not. (res%has_exact .and. res%has_dual .and. res%certified)) return
+    if (.not. (res%err_energy**2 > (1.0_dp + exact_consistency_tol) * res%est)) return
+    if (kind == PROBLEM_P1) then
+      pde = '-Lap u + u = f'
+    else
+      pde = '-Lap u = f'
+    end if
+    res%exact_refuted = .true.
+    call set_error(st, DS_ERR_INPUT, 'analysis: level ' // itoa(level) // ': the error against the exact ' // &
+      'solution, ' // rtoa(res%err_energy) // ', exceeds the guaranteed bound sqrt(est) = ' // &
+      rtoa(sqrt(max(res%est, 0.0_dp))) // ', which holds for the solution of the problem posed: the exact ' // &
+      'solution given is not that solution (expected u_exact with ' // pde // ' in the domain, smooth ' // &
+      'between the nodes); its error columns would be meaningless')
+  end subroutine check_exact_solution
 
   !> A level whose bounds fell below the range where double precision keeps its digits is
   !> not certified: est and energy_hi must be at least representable_floor (or est exactly 0)

@@ -336,6 +336,9 @@ contains
     end if
     if (is_ok(st)) then
       call write_run_files(run, an%mesh, tab, done, '', st, unit)
+    else if (done > 0 .and. res%exact_refuted) then
+      ! u_exact refuted by a bound: the error columns of the finished levels are as wrong
+      st%msg = run%where // ' ("' // run%title // '"), ' // st%msg // '; no tables written'
     else if (done > 0) then
       ! the finished levels survive the failure of a later one
       call write_run_files(run, an%mesh, tab, done, st%msg, st_write, unit)
