@@ -25,7 +25,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_quadrature, only: tri_rule_t, tri_rule
   use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, sort_row_by_column
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
-                                  rt1_matrix_degree, rt1_nbasis, rt1_nside
+                                  rt1_matrix_degree, rt1_nbasis, rt1_nside, rt1_reference_t, rt1_reference
   use dualsig_status, only: status_t
   use dualsig_load_data, only: load_data_t
   use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
@@ -130,7 +130,7 @@ contains
     real(dp), intent(in), optional :: u(:)
     type(load_data_t), intent(in), optional :: load
     integer, allocatable :: cliques(:,:)
-    type(tri_rule_t) :: exact_rule
+    type(rt1_reference_t) :: ref
     type(rt1_geometry_t) :: g
     real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), se(rt1_nside, rt1_nside), ce(rt1_nside)
     real(dp) :: sgn(rt1_nside), fq(rule%n), ue(3), p(2), centroid(2), osc_sq
@@ -146,7 +146,7 @@ contains
     if (alloc_failed(ist, st, 'the condensed RT1 system', 2 * mesh%nedge + (2 * rt1_nside + 2) * mesh%ntri, &
                      BYTES_REAL)) return
     sys%b = 0.0_dp
-    exact_rule = tri_rule(rt1_matrix_degree)
+    ref = rt1_reference(tri_rule(rt1_matrix_degree))
     ue = 0.0_dp
     osc_sq = 0.0_dp
     do t = 1, mesh%ntri
@@ -161,7 +161,7 @@ contains
         end if
       end do
       if (present(load)) osc_sq = load%osc(t)**2
-      call rt1_element(g, fq, rule, exact_rule, ae, be)
+      call rt1_element(g, fq, rule, ref, ae, be)
       if (present(u)) ue = u(mesh%tri(:, t))
       sys%data_sq = sys%data_sq + osc_sq + g%area * (sum(matmul(g%grad, ue)**2) &
                     + sum(rule%w * (fq - matmul(ue, rule%bary))**2))

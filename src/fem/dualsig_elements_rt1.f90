@@ -23,10 +23,22 @@
 !> lambda_m - 1).  Both are linear, so div q is evaluated from its vertex values.
 !>
 !> Element matrices of the dual functional (3.1'): ae = Gram matrix of ||q||^2 + ||div q||^2
-!> (integrands of degree 4, integrated exactly by Radon's degree-5 rule) and
-!> be_i = -(f, div psi_i) (from the caller's values of f at the rule's points).  The two
-!> interior unknowns are eliminated element by element (static condensation, exact: they
-!> are free).
+!> and be_i = -(f, div psi_i) (from the caller's values of f at the points of a rule).  The
+!> two interior unknowns are eliminated element by element (static condensation, exact:
+!> they are free).
+!>
+!> ae in closed form (rt1_element): every basis function is a multiple s_i of the
+!> contravariant Piola image of the same function on the reference triangle
+!> a^_1 = (0,0), a^_2 = (1,0), a^_3 = (0,1): with J = [a_2 - a_1, a_3 - a_1] (det J = 2|T| > 0,
+!> counter-clockwise), psi_i(x) = s_i J psi^_i(x^) / det J and div psi_i = s_i div^ psi^_i /
+!> det J, where s = |S_k| / |S^_k| for the two functions of side k and
+!> s = h^ det J / h for the interior ones (h^ = sqrt 2).  Hence
+!>     ae_ij = s_i s_j / det J (C_11 R11 + C_12 R12 + C_22 R22 + D)_ij,   C = J^T J,
+!> with the reference matrices R11_ij = int psi^_i,1 psi^_j,1, R12_ij = int (psi^_i,1 psi^_j,2 +
+!> psi^_i,2 psi^_j,1), R22_ij = int psi^_i,2 psi^_j,2 and D_ij = int div^ psi^_i div^ psi^_j
+!> (rt1_reference: degree-4 integrands, integrated exactly once), and the linear
+!> divergences give be_i = -(s_i / 2) sum_q w_q f_q div^ psi^_i(x^_q) (exact for f linear
+!> and a rule of degree >= 2).
 module dualsig_elements_rt1
   use dualsig_kinds, only: dp
   use dualsig_quadrature, only: tri_rule_t
@@ -35,7 +47,7 @@ module dualsig_elements_rt1
   private
 
   public :: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, rt1_matrix_degree
-  public :: rt1_nbasis, rt1_nside
+  public :: rt1_nbasis, rt1_nside, rt1_reference_t, rt1_reference
 
   integer, parameter :: rt1_nbasis = 8    !! basis functions per triangle
   integer, parameter :: rt1_nside = 6     !! of them side functions (2 per side)
@@ -50,6 +62,17 @@ module dualsig_elements_rt1
     real(dp) :: side(3) = 0.0_dp        !! |S_k|, S_k = a_k a_{k+1}
     real(dp) :: h = 0.0_dp              !! longest side (scale of the interior functions)
   end type rt1_geometry_t
+
+  !> The reference triangle's matrices of the closed-form element matrix (module header).
+  type :: rt1_reference_t
+    real(dp) :: r11(rt1_nbasis, rt1_nbasis) = 0.0_dp
+    real(dp) :: r12(rt1_nbasis, rt1_nbasis) = 0.0_dp
+    real(dp) :: r22(rt1_nbasis, rt1_nbasis) = 0.0_dp
+    real(dp) :: d(rt1_nbasis, rt1_nbasis) = 0.0_dp
+    real(dp) :: div_vertex(3, rt1_nbasis) = 0.0_dp   !! div^ psi^_i at the reference vertices
+    real(dp) :: side(3) = 0.0_dp                     !! |S^_k|
+    real(dp) :: h = 0.0_dp                           !! h^ = sqrt 2
+  end type rt1_reference_t
 
 contains
 
@@ -93,47 +116,68 @@ contains
     end do
   end subroutine rt1_values
 
-  !> Element matrix ae (Gram matrix of ||q||^2 + ||div q||^2) and vector
-  !> be_i = -(f, div psi_i) with the values fq of f at the points of `rule` (exact when f is
-  !> linear on the triangle, e.g. Pi_1 f, and rule%degree >= 2) of the functional (3.1').
-  !> exact_rule must have degree >= rt1_matrix_degree (e.g. tri_rule(rt1_matrix_degree)):
-  !> then ae is exact.  When `rule` itself has that degree, ae is integrated with it (one
-  !> evaluation of the basis per point, the same exact values).
-  pure subroutine rt1_element(g, fq, rule, exact_rule, ae, be)
-    type(rt1_geometry_t), intent(in) :: g
-    real(dp), intent(in) :: fq(:)
-    type(tri_rule_t), intent(in) :: rule, exact_rule
-    real(dp), intent(out) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis)
+  !> The reference matrices R11, R12, R22, D and the vertex divergences of the basis on
+  !> the reference triangle (0,0), (1,0), (0,1), integrated exactly by `rule` (degree >=
+  !> rt1_matrix_degree, e.g. tri_rule(rt1_matrix_degree)).
+  pure function rt1_reference(rule) result(ref)
+    type(tri_rule_t), intent(in) :: rule
+    type(rt1_reference_t) :: ref
+    type(rt1_geometry_t) :: g
     real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), w
-    integer :: q
-    logical :: shared
-    shared = rule%degree >= rt1_matrix_degree
-    ae = 0.0_dp
-    be = 0.0_dp
+    integer :: q, i, v
+    g = rt1_geometry(reshape([0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [2, 3]))
     do q = 1, rule%n
       call rt1_values(g, rule%bary(:, q), psi, dpsi)
       w = g%area * rule%w(q)
-      be = be - w * fq(q) * dpsi
-      if (shared) call add_gram(w, psi, dpsi, ae)
-    end do
-    if (.not. shared) then
-      do q = 1, exact_rule%n
-        call rt1_values(g, exact_rule%bary(:, q), psi, dpsi)
-        call add_gram(g%area * exact_rule%w(q), psi, dpsi, ae)
+      do i = 1, rt1_nbasis
+        ref%r11(:, i) = ref%r11(:, i) + w * psi(1, :) * psi(1, i)
+        ref%r12(:, i) = ref%r12(:, i) + w * (psi(1, :) * psi(2, i) + psi(2, :) * psi(1, i))
+        ref%r22(:, i) = ref%r22(:, i) + w * psi(2, :) * psi(2, i)
+        ref%d(:, i) = ref%d(:, i) + w * dpsi * dpsi(i)
       end do
-    end if
-    ae = 0.5_dp * (ae + transpose(ae))
-  end subroutine rt1_element
-
-  !> ae = ae + w (psi_i . psi_j + dpsi_i dpsi_j): one quadrature point of the Gram matrix.
-  pure subroutine add_gram(w, psi, dpsi, ae)
-    real(dp), intent(in) :: w, psi(2, rt1_nbasis), dpsi(rt1_nbasis)
-    real(dp), intent(inout) :: ae(rt1_nbasis, rt1_nbasis)
-    integer :: i
-    do i = 1, rt1_nbasis
-      ae(:, i) = ae(:, i) + w * (psi(1, i) * psi(1, :) + psi(2, i) * psi(2, :) + dpsi(i) * dpsi)
     end do
-  end subroutine add_gram
+    do v = 1, 3
+      call rt1_values(g, real([merge(1, 0, v == 1), merge(1, 0, v == 2), merge(1, 0, v == 3)], dp), psi, dpsi)
+      ref%div_vertex(v, :) = dpsi
+    end do
+    ! exactly symmetric (the products above are summed in two orders)
+    ref%r11 = 0.5_dp * (ref%r11 + transpose(ref%r11))
+    ref%r12 = 0.5_dp * (ref%r12 + transpose(ref%r12))
+    ref%r22 = 0.5_dp * (ref%r22 + transpose(ref%r22))
+    ref%d = 0.5_dp * (ref%d + transpose(ref%d))
+    ref%side = g%side
+    ref%h = g%h
+  end function rt1_reference
+
+  !> Element matrix ae (Gram matrix of ||q||^2 + ||div q||^2, exact) and vector
+  !> be_i = -(f, div psi_i) with the values fq of f at the points of `rule` (exact when f is
+  !> linear on the triangle, e.g. Pi_1 f, and rule%degree >= 2) of the functional (3.1'),
+  !> both in closed form from the reference matrices ref = rt1_reference(...) (module header).
+  pure subroutine rt1_element(g, fq, rule, ref, ae, be)
+    type(rt1_geometry_t), intent(in) :: g
+    real(dp), intent(in) :: fq(:)
+    type(tri_rule_t), intent(in) :: rule
+    type(rt1_reference_t), intent(in) :: ref
+    real(dp), intent(out) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis)
+    real(dp) :: e1(2), e2(2), c11, c12, c22, det, s(rt1_nbasis), fb(3)
+    integer :: i, k
+    e1 = g%xy(:, 2) - g%xy(:, 1)
+    e2 = g%xy(:, 3) - g%xy(:, 1)
+    det = 2.0_dp * g%area
+    c11 = dot_product(e1, e1)
+    c12 = dot_product(e1, e2)
+    c22 = dot_product(e2, e2)
+    do k = 1, 3
+      s(2 * k - 1:2 * k) = g%side(k) / ref%side(k)
+    end do
+    s(7:8) = ref%h * det / g%h
+    do i = 1, rt1_nbasis
+      ae(:, i) = (s * s(i) / det) * (c11 * ref%r11(:, i) + c12 * ref%r12(:, i) + c22 * ref%r22(:, i) + ref%d(:, i))
+    end do
+    ! sum_q w_q f_q bary_q: the divergences are linear in the barycentric coordinates
+    fb = matmul(rule%bary(:, 1:rule%n), rule%w(1:rule%n) * fq(1:rule%n))
+    be = -0.5_dp * s * matmul(fb, ref%div_vertex)
+  end subroutine rt1_element
 
   !> Static condensation of the two interior unknowns x_I (free): with the blocks of ae
   !> and be on the side (S) and interior (I) unknowns,
