@@ -481,7 +481,7 @@ contains
     integer, allocatable :: gline(:)
     logical :: inside
     character(len=1) :: quote
-    character(len=:), allocatable :: cur
+    character(len=:), allocatable :: cur, rest
     inside = .false.
     ng = 0
     nbody = 0
@@ -531,6 +531,16 @@ contains
           cur = cur(1:k - 1)
           exit
         else if (cur(k:k) == '/') then
+          ! after the '/' only blanks or a comment: text there is outside every group (a
+          ! Fortran READ would skip it silently, a second group on the line included)
+          rest = adjustl(cur(k + 1:))
+          if (len_trim(rest) > 0 .and. rest(1:1) /= '!') then
+            call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // ': "' // &
+              trim(rest(1:min(len_trim(rest), 30))) // '" after the ''/'' that closes the &' // trim(gname(ng)) // &
+              ' group (expected nothing but a comment there; start the next group on a new line)')
+            allocate (groups(0))                    ! small: empty
+            return
+          end if
           cur = cur(1:k - 1)
           inside = .false.
           exit
