@@ -413,10 +413,16 @@ contains
     ! level is not a uniform coarsening; from level 2 on the same bound at a fraction of the cost)
     if (settings%dual_method == 'default' .and. problem%kind == PROBLEM_P1 .and. settings%dual_space == 'hdiv') &
       method = 'nested'
+    if (settings%dual .and. problem%kind == PROBLEM_P1 .and. method == 'nested' .and. &
+        settings%dual_space == 'paper') then
+      ! the method applies to P1, not to this space
+      call set_error(st, DS_ERR_INPUT, "analysis: dual method 'nested' needs dual space 'hdiv' (its hierarchy " // &
+        "is of RT1 fields); with space 'paper' the methods are active_set and uzawa")
+      return
+    end if
     if (settings%dual) then
       if ((problem%kind == PROBLEM_P1 .and. (method == 'augmented' .or. method == 'multigrid')) .or. &
-          (problem%kind /= PROBLEM_P1 .and. (method == 'active_set' .or. method == 'nested')) .or. &
-          (problem%kind == PROBLEM_P1 .and. method == 'nested' .and. settings%dual_space /= 'hdiv')) then
+          (problem%kind /= PROBLEM_P1 .and. (method == 'active_set' .or. method == 'nested'))) then
         call set_error(st, DS_ERR_INPUT, "analysis: dual method '" // method // "' does not apply to problem P" // &
           itoa(problem%kind) // '; P1: active_set, uzawa or nested (space hdiv), P2: augmented, multigrid or uzawa')
         return

@@ -343,8 +343,9 @@ contains
       ! the finished levels survive the failure of a later one
       call write_run_files(run, an%mesh, tab, done, st%msg, st_write, unit)
       if (is_ok(st_write)) then
-        st%msg = run%where // ' ("' // run%title // '"), ' // st%msg // '; the run stopped there: the tables of levels 1 to ' // &
-          itoa(done) // ' were written to ' // trim(cfg%output) // '.txt and .csv'
+        st%msg = run%where // ' ("' // run%title // '"), ' // st%msg // '; the run stopped there: the tables of ' // &
+          trim(merge('steps ', 'levels', run%adaptive)) // ' 1 to ' // itoa(done) // ' were written to ' // &
+          trim(cfg%output) // '.txt and .csv'
       else
         st%msg = st%msg // '; writing the tables of levels 1 to ' // itoa(done) // ' failed too: ' // st_write%msg
       end if
@@ -477,9 +478,16 @@ contains
       what = 'the available memory (MemAvailable of /proc/meminfo and this process''s resident memory) ' // &
              rtoa(limit) // ' GB'
     end if
-    if (need > limit) call set_error(st, DS_ERR_INPUT, 'level ' // itoa(level) // ': ' // i8toa(ntri) // &
-      ' triangles need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
-      ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
+    if (need <= limit) return
+    if (run%adaptive) then
+      call set_error(st, DS_ERR_INPUT, 'step ' // itoa(level) // ': ' // i8toa(ntri) // &
+        ' triangles need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
+        ' (expected a larger &adapt tol or a smaller max_ndof, or a larger &run max_memory_gb)')
+    else
+      call set_error(st, DS_ERR_INPUT, 'level ' // itoa(level) // ': ' // i8toa(ntri) // &
+        ' triangles need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
+        ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
+    end if
   end subroutine check_level_memory
 
   !> The memory (GB) a level may use: max_memory_gb when it is set (> 0), else the machine's
@@ -595,6 +603,8 @@ contains
       end if
       if (cfg%has_problem) then
         call default_boundary_parts(run, cfg%problem_kind == 'P1', .false., unit)
+        call check_boundary_parts(run, st, unit)
+        if (st%code /= 0) return
         call user_problem_build(cfg, phys, pb, st)
         if (st%code /= 0) return
         run%scene%has_exact = allocated(pb%u_exact)
@@ -614,6 +624,8 @@ contains
       end if
       pb%kind = run%scene%problem
       call default_boundary_parts(run, pb%kind == PROBLEM_P1, .true., unit)
+      call check_boundary_parts(run, st, unit)
+      if (st%code /= 0) return
       ! (allocate with source: gfortran 12 mis-assigns to an allocated polymorphic component)
       allocate (pb%f, source=run%scene%f)                ! small: a scene's function field
       pb%x_breaks = run%scene%x_breaks(1:run%scene%nbreaks)
@@ -624,6 +636,100 @@ contains
       run%q0 = mesh_quality(pb%mesh)
     end associate
   end subroutine build_problem
+
+  !> The boundary parts against the coarse mesh, in the terms the run gave them (the
+  !> library checks the markers again, but cannot name what the user wrote): a name in both
+  !> &run gamma_u_names and gamma_a_names, or a scene's default marker that the mesh does
+  !> not have (the scene's parts belong to its own mesh), is DS_ERR_INPUT; a marker or a
+  !> name listed twice in one list gets a note (the part counts once).
+  subroutine check_boundary_parts(run, st, unit)
+    type(run_t), intent(in) :: run
+    type(status_t), intent(out) :: st
+    integer, intent(in) :: unit
+    integer :: k
+    associate (cfg => run%cfg, pb => run%problem)
+      if (run%by_names) then
+        do k = 1, size(cfg%gamma_u_names)
+          if (len_trim(cfg%gamma_u_names(k)) == 0) cycle
+          if (any(cfg%gamma_a_names == cfg%gamma_u_names(k))) then
+            call set_error(st, DS_ERR_INPUT, run%where // ": &run gamma_u_names and gamma_a_names both list '" // &
+              trim(cfg%gamma_u_names(k)) // "' (expected each boundary part in one of them)")
+            return
+          end if
+        end do
+        call note_repeated_names(run, cfg%gamma_u_names, 'gamma_u_names', unit)
+        call note_repeated_names(run, cfg%gamma_a_names, 'gamma_a_names', unit)
+      else if (any(cfg%gamma_u_markers /= 0) .or. any(cfg%gamma_a_markers /= 0)) then
+        call note_repeated_markers(run, cfg%gamma_u_markers, 'gamma_u_markers', unit)
+        call note_repeated_markers(run, cfg%gamma_a_markers, 'gamma_a_markers', unit)
+      else
+        call check_scene_markers(run, pb%gamma_u, st)
+        if (st%code == 0) call check_scene_markers(run, pb%gamma_a, st)
+      end if
+    end associate
+  end subroutine check_boundary_parts
+
+  !> DS_ERR_INPUT when one of a scene's default `markers` does not occur on the mesh.
+  subroutine check_scene_markers(run, markers, st)
+    type(run_t), intent(in) :: run
+    integer, intent(in) :: markers(:)
+    type(status_t), intent(inout) :: st
+    integer :: k
+    do k = 1, size(markers)
+      if (markers(k) <= 0 .or. any(run%problem%mesh%bedge_marker == markers(k))) cycle
+      call set_error(st, DS_ERR_INPUT, run%where // ': the default boundary parts of scene ' // &
+        trim(run%scene%name) // ' are the markers of its own domain (the scene table of the user ' // &
+        'guide), and its marker ' // itoa(markers(k)) // ' does not occur on this mesh, whose markers are' // &
+        marker_text(run%problem%mesh%bedge_marker) // ' (expected the scene''s domain, or &run ' // &
+        'gamma_u_markers and gamma_a_markers with the markers of this mesh)')
+      return
+    end do
+  end subroutine check_scene_markers
+
+  !> The distinct values of `markers`, ascending, each after a blank.
+  function marker_text(markers) result(text)
+    integer, intent(in) :: markers(:)
+    character(len=:), allocatable :: text
+    integer :: m
+    text = ''
+    if (size(markers) == 0) return
+    m = minval(markers)
+    do
+      text = text // ' ' // itoa(m)
+      if (.not. any(markers > m)) exit
+      m = minval(markers, mask=markers > m)
+    end do
+  end function marker_text
+
+  !> A note for every name given more than once in the list `item` of &run.
+  subroutine note_repeated_names(run, names, item, unit)
+    type(run_t), intent(in) :: run
+    character(len=*), intent(in) :: names(:)
+    character(len=*), intent(in) :: item
+    integer, intent(in) :: unit
+    integer :: k
+    do k = 2, size(names)
+      if (len_trim(names(k)) == 0) cycle
+      if (any(names(1:k - 1) == names(k)) .and. .not. any(names(k + 1:) == names(k))) &
+        write (unit, '(a)') 'note: ' // run%where // ': &run ' // item // " lists '" // trim(names(k)) // &
+          "' " // itoa(count(names == names(k))) // ' times (the part counts once)'
+    end do
+  end subroutine note_repeated_names
+
+  !> A note for every marker given more than once in the list `item` of &run.
+  subroutine note_repeated_markers(run, markers, item, unit)
+    type(run_t), intent(in) :: run
+    integer, intent(in) :: markers(:)
+    character(len=*), intent(in) :: item
+    integer, intent(in) :: unit
+    integer :: k
+    do k = 2, size(markers)
+      if (markers(k) <= 0) cycle
+      if (any(markers(1:k - 1) == markers(k)) .and. .not. any(markers(k + 1:) == markers(k))) &
+        write (unit, '(a)') 'note: ' // run%where // ': &run ' // item // ' lists marker ' // itoa(markers(k)) // &
+          ' ' // itoa(count(markers == markers(k))) // ' times (the part counts once)'
+    end do
+  end subroutine note_repeated_markers
 
   !> Boundary parts when &run gives neither markers nor names: P1 has Signorini conditions
   !> on the whole boundary (every marker of the mesh in Gamma_a), for a scene too (its
@@ -1221,7 +1327,11 @@ contains
       tex_path = trim(cfg%output) // '.tex'
       header = table_header(run, mesh)
       if (len(stopped) > 0) then
-        line = 'STOPPED after level ' // itoa(nlevel) // ' of ' // itoa(max_rows(cfg)) // ': ' // stopped
+        if (run%adaptive) then
+          line = 'STOPPED after step ' // itoa(nlevel) // ': ' // stopped
+        else
+          line = 'STOPPED after level ' // itoa(nlevel) // ' of ' // itoa(max_rows(cfg)) // ': ' // stopped
+        end if
         header = [character(len=len(header)) :: header(1:1), line, header(2:)]
       end if
       ! (element by element: gfortran 12 corrupts the heap on some constructors of strings)
