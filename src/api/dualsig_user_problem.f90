@@ -105,6 +105,13 @@ contains
     end function shown
   end function user_problem_description
 
+  !> The namelist file and the line of the run (a batch has several), for the messages.
+  function run_of(cfg) result(where)
+    type(run_config_t), intent(in) :: cfg
+    character(len=:), allocatable :: where
+    where = cfg%source_file // ': run of line ' // itoa(cfg%line)
+  end function run_of
+
   !> Compile `text` (the value of &problem `variable`) and check it, and its gradient when
   !> `gradient`, at the nodes and centroids of the coarse triangles (those with mask, when
   !> given).
@@ -123,7 +130,7 @@ contains
     logical :: ok
     call expression_compile(text, e, st)
     if (st%code /= 0) then
-      st%msg = expression_input_message(cfg%source_file, 'problem', variable, text, st%msg)
+      st%msg = expression_input_message(run_of(cfg), 'problem', variable, text, st%msg)
       return
     end if
     ! the points: per triangle its centroid and its vertices (a triangle's own, so that a
@@ -150,7 +157,7 @@ contains
     call expression_check_finite(e, x(1:n), y(1:n), ok, i, gradient, st)
     if (ok .or. .not. is_ok(st)) return
     t = owner(i)
-    call set_error(st, DS_ERR_INPUT, expression_input_message(cfg%source_file, 'problem', variable, text, &
+    call set_error(st, DS_ERR_INPUT, expression_input_message(run_of(cfg), 'problem', variable, text, &
       trim(merge('the value or its gradient', 'the value                ', gradient)) // ' is not finite (NaN or Inf) at ' // &
       '(' // rtoa(x(i)) // ', ' // rtoa(y(i)) // '), ' // &
       trim(merge('the centroid of', 'a vertex of    ', mod(i - 1, 4) == 0)) // ' triangle ' // itoa(t) // &
