@@ -33,7 +33,7 @@ module dualsig_mesh_triangle
   use dualsig_status, only: status_t, set_error, DS_ERR_MESH
   use dualsig_mesh, only: mesh_t
   use dualsig_mesh_io, only: mesh_text_reader_t, mesh_reader_open, mesh_reader_close, mesh_reader_next, &
-                             mesh_reader_count_ok, &
+                             mesh_reader_count_ok, mesh_reader_field, &
                              mesh_reader_expect, mesh_reader_int, mesh_reader_real, mesh_reader_fail, &
                              mesh_quote, mesh_check_file_geometry, mesh_finish_topology, mesh_drop_unused_nodes, &
                              mesh_mark_boundary, mesh_note_len
@@ -98,7 +98,7 @@ contains
     type(node_list_t) :: nodes
     integer, allocatable :: tri_line(:), tri_id(:), cand(:,:), cand_marker(:), cand_line(:), new_index(:), node_id(:)
     integer :: npoly, nbmark, k, nflip, ndropped, ninterior, nstray
-    logical :: is_triangle, has_poly, has_edge
+    logical :: is_triangle, has_poly, has_edge, has_ele, has_node
     character(len=:), allocatable :: what
 
     if (present(nflipped)) nflipped = 0
@@ -106,6 +106,17 @@ contains
     call triangle_base_name(path, base, is_triangle)
     inquire (file=base // '.poly', exist=has_poly)
     inquire (file=base // '.edge', exist=has_edge)
+    inquire (file=base // '.ele', exist=has_ele)
+    inquire (file=base // '.node', exist=has_node)
+    if (.not. has_ele .or. .not. (has_node .or. has_poly)) then
+      ! the triangles (.ele) and the nodes (.node, or a .poly listing them) first
+      call set_error(st, DS_ERR_MESH, "mesh file '" // trim(path) // "' read as a Triangle mesh, but '" // &
+        base // trim(merge('.ele ', '.node', .not. has_ele)) // "' does not exist (expected the files " // &
+        "<base>.node and <base>.ele of Triangle; a mesh in another format needs &mesh format = 'auto' or " // &
+        'its own format)')
+      if (present(notes)) notes = nt
+      return
+    end if
     if (.not. (has_poly .or. has_edge)) then
       call set_error(st, DS_ERR_MESH, "mesh file '" // base // ".node': no boundary markers: neither '" // &
         base // ".poly' nor '" // base // ".edge' exists (expected one of them, e.g. written by triangle -pe)")
@@ -131,7 +142,8 @@ contains
     ! --- triangles ---
     if (st%code == 0) then
       call mesh_reader_open(rd, base // '.ele', .true., st)
-      if (st%code == 0) call read_triangles(rd, nodes, mesh, tri_line, tri_id, st)
+      if (st%code == 0) call read_triangles(rd, nodes, mesh, tri_line, tri_id, st, what)
+      if (st%code == 0 .and. len(what) > 0) nt = [character(len=mesh_note_len) :: nt, what]
       if (st%code == 0) call expect_end(rd, 'the ' // itoa(mesh%ntri) // ' announced triangles', st)
       call mesh_reader_close(rd)
     end if
@@ -256,17 +268,20 @@ contains
   end subroutine read_nodes
 
   !> The .ele file: header '<ntri> <nodes per triangle> <nattr>' and the triangle lines.
-  subroutine read_triangles(rd, nodes, mesh, tri_line, tri_id, st)
+  subroutine read_triangles(rd, nodes, mesh, tri_line, tri_id, st, note)
     type(mesh_text_reader_t), intent(inout) :: rd
     type(node_list_t), intent(in) :: nodes
     type(mesh_t), intent(inout) :: mesh
     integer, allocatable, intent(out) :: tri_line(:), tri_id(:)
     type(status_t), intent(inout) :: st
+    !> '' or why the triangles have no regions (a first attribute that is not an integer)
+    character(len=:), allocatable, intent(out) :: note
     integer :: nt, npt, nattr, k, j, id, base, istat
     real(dp) :: attr
     character(len=:), allocatable :: layout
     character(len=*), parameter :: header = "'<ntriangles> <nodes per triangle> <nattr>'"
 
+    note = ''
     if (.not. mesh_reader_expect(rd, 'the header line ' // header, st)) return
     if (rd%nf /= 3) then
       call mesh_reader_fail(rd, 'expected the header line ' // header // ', found ' // mesh_quote(rd%line), st)
@@ -316,6 +331,8 @@ contains
           mesh%tri_region(k) = nint(attr)
         else
           deallocate (mesh%tri_region)              ! not integers: no regions
+          note = 'no regions: the first attribute of triangle ' // itoa(id) // ' (line ' // itoa(rd%lineno) // &
+                 ') is ' // mesh_reader_field(rd, 4 + j) // ', not an integer (a region attribute, triangle -A, is one)'
         end if
       end do
     end do
