@@ -19,7 +19,7 @@ module dualsig_analysis
   use dualsig_clock, only: wall_seconds
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_status, only: status_t, set_error, is_ok, is_warning, is_error, DS_OK, DS_ERR_INPUT, DS_WARN_NOT_CONVERGED, &
-                            DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC, DS_ERR_MEMORY, set_warning
+                            DS_WARN_NOT_CERTIFIED, DS_ERR_NUMERIC, DS_ERR_LAPACK, DS_ERR_MEMORY, set_warning
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_exact_boundary, only: exact_boundary_check
@@ -97,6 +97,8 @@ module dualsig_analysis
   !> guaranteed bound, err^2 > (1 + exact_consistency_tol) est, refutes u_exact.  The margin
   !> covers the quadrature of err (u_exact is not a polynomial; est needs no margin).
   real(dp), parameter :: exact_consistency_tol = 1.0e-2_dp
+  !> explain_small_p1_domain: a P1 domain of smaller diameter may fail for its scale.
+  real(dp), parameter :: p1_small_domain = 1.0e-3_dp
   !> Why an adaptive loop stops (analysis_adapt_stop): not yet; the certified relative error
   !> reached tol; max_ndof unknowns reached; the next step would end after max_seconds; the
   !> largest number of steps (adapt_max_steps, the two digits of the .vtu names).
@@ -928,7 +930,10 @@ contains
       call phase_event(an, an%level, 'assemble', .true., wall_seconds() - t0)
       call phase_event(an, an%level, 'primal solve', .false., 0.0_dp)
       call solve_primal(an, sys, res, st)
-      if (.not. is_ok(st)) return
+      if (.not. is_ok(st)) then
+        call explain_small_p1_domain(mesh, pb%kind, st)
+        return
+      end if
       call phase_event(an, an%level, 'primal solve', .true., res%primal_seconds)
       res%u = an%u
       call move_alloc(sys%kind, res%bound_kind)
@@ -944,6 +949,7 @@ contains
         res%estimate_seconds = wall_seconds()
         if (pb%kind == PROBLEM_P1) then
           call dual_level_p1(an, res, st)
+          if (.not. is_ok(st)) call explain_small_p1_domain(mesh, pb%kind, st)
         else
           call dual_level_p2(an, res, st)
         end if
@@ -955,6 +961,24 @@ contains
       if (is_ok(st)) call check_exact_solution(an%level, pb%kind, res, st)
     end associate
   end subroutine solve_level
+
+  !> A numerical failure of the P1 primal on a small domain gets its likely cause: -Lap u + u
+  !> is not scale-invariant; the mass matrix of the reaction term is about h^2 times the
+  !> stiffness matrix, so on a domain of diameter below p1_small_domain K + M is singular to
+  !> rounding (or nearly: the solvers stall or a pivot vanishes).
+  subroutine explain_small_p1_domain(mesh, kind, st)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: kind
+    type(status_t), intent(inout) :: st
+    real(dp) :: d
+    if (kind /= PROBLEM_P1 .or. .not. (st%code == DS_ERR_NUMERIC .or. st%code == DS_ERR_LAPACK)) return
+    d = mesh_diameter(mesh)
+    if (.not. (d < p1_small_domain)) return
+    st%msg = st%msg // ' (the domain''s diameter is ' // rtoa(d) // ': problem P1, -Lap u + u = f, is not ' // &
+      'scale-invariant, and its reaction term u weighs about h^2 = ' // rtoa(mesh_h(mesh)**2) // ' against ' // &
+      'the diffusion term, so the system is singular to rounding; expected coordinates in units where the ' // &
+      'domain has a moderate size)'
+  end subroutine explain_small_p1_domain
 
   !> The error of u_h against the given exact solution can never exceed a certified bound:
   !> ||u - u_h||^2 <= est (6.13) for P1, |u - u_h|_1^2 <= est (6.26) for P2, for the
