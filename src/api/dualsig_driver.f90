@@ -42,7 +42,7 @@ module dualsig_driver
   use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_run_files, &
                             vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, &
                             mesh_edges_path
-  use dualsig_strings, only: itoa, i8toa, rtoa
+  use dualsig_strings, only: itoa, i8toa, rtoa, distinct_text
   use dualsig_clock, only: resident_memory_mb, peak_memory_mb
   use dualsig_io_files, only: file_commit_all, file_delete, temp_name, ensure_parent_dir, text_file_t, text_open, &
                               text_abandon, memory_available_gb, same_file
@@ -679,27 +679,12 @@ contains
       if (markers(k) <= 0 .or. any(run%problem%mesh%bedge_marker == markers(k))) cycle
       call set_error(st, DS_ERR_INPUT, run%where // ': the default boundary parts of scene ' // &
         trim(run%scene%name) // ' are the markers of its own domain (the scene table of the user ' // &
-        'guide), and its marker ' // itoa(markers(k)) // ' does not occur on this mesh, whose markers are' // &
-        marker_text(run%problem%mesh%bedge_marker) // ' (expected the scene''s domain, or &run ' // &
+        'guide), and its marker ' // itoa(markers(k)) // ' does not occur on this mesh, whose markers are ' // &
+        distinct_text(run%problem%mesh%bedge_marker) // ' (expected the scene''s domain, or &run ' // &
         'gamma_u_markers and gamma_a_markers with the markers of this mesh)')
       return
     end do
   end subroutine check_scene_markers
-
-  !> The distinct values of `markers`, ascending, each after a blank.
-  function marker_text(markers) result(text)
-    integer, intent(in) :: markers(:)
-    character(len=:), allocatable :: text
-    integer :: m
-    text = ''
-    if (size(markers) == 0) return
-    m = minval(markers)
-    do
-      text = text // ' ' // itoa(m)
-      if (.not. any(markers > m)) exit
-      m = minval(markers, mask=markers > m)
-    end do
-  end function marker_text
 
   !> A note for every name given more than once in the list `item` of &run.
   subroutine note_repeated_names(run, names, item, unit)

@@ -10,7 +10,7 @@
 module dualsig_user_problem
   use dualsig_kinds, only: dp, i8
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_IO
-  use dualsig_strings, only: itoa, i8toa, rtoa
+  use dualsig_strings, only: itoa, i8toa, rtoa, distinct_text
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_expression, only: expression_t, expression_compile, expression_check_finite, &
                                 expression_input_message
@@ -196,7 +196,7 @@ contains
         if (j == 0) then
           call set_error(st, DS_ERR_INPUT, where // '&problem f_regions: no region ''' // trim(cfg%f_regions(k)) // &
             ''' in the mesh (expected a Gmsh physical surface name' // surface_names(phys) // ', or a region tag: ' // &
-            tag_list(pb%mesh%tri_region) // ')')
+            distinct_text(pb%mesh%tri_region) // ')')
           return
         end if
         tags(n) = phys%tag(j)
@@ -213,7 +213,7 @@ contains
       if (j == 0) then
         call set_error(st, DS_ERR_INPUT, where // '&problem f_regions: triangle ' // itoa(t) // ' of the mesh lies ' // &
           'in region ' // itoa(pb%mesh%tri_region(t)) // ', which has no value (expected a value for every region ' // &
-          'of the mesh: ' // tag_list(pb%mesh%tri_region) // ')')
+          'of the mesh: ' // distinct_text(pb%mesh%tri_region) // ')')
         return
       end if
       tri_expr(t) = j
@@ -247,22 +247,6 @@ contains
     end do
     if (len(s) > 0) s = ' (' // s // ')'
   end function surface_names
-
-  !> The distinct values of v, ascending, separated by blanks.
-  function tag_list(v) result(s)
-    integer, intent(in) :: v(:)
-    character(len=:), allocatable :: s
-    integer :: lo
-    s = ''
-    if (size(v) == 0) return
-    lo = minval(v)
-    do
-      s = s // ' ' // itoa(lo)
-      if (.not. any(v > lo)) exit
-      lo = minval(v, mask=v > lo)
-    end do
-    s = s(2:)
-  end function tag_list
 
   !> f from nodal values: the file holds one value per node of the coarse mesh, in node
   !> order, separated by blanks or line ends; '#' and '!' start comments.

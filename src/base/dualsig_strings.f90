@@ -4,7 +4,7 @@ module dualsig_strings
   implicit none
   private
 
-  public :: itoa, i8toa, rtoa, lower
+  public :: itoa, i8toa, rtoa, lower, distinct_text
 
   !> Most significant digits ever needed for a real(dp) to read back exactly.
   integer, parameter :: max_digits = 17
@@ -46,6 +46,22 @@ contains
     s = trim(adjustl(buf))
     if (index(s, 'E+000') > 0) s = s(1:index(s, 'E+000') - 1)
   end function rtoa
+
+  !> The distinct values of v, ascending, separated by blanks ('' when v is empty).
+  pure function distinct_text(v) result(s)
+    integer, intent(in) :: v(:)
+    character(len=:), allocatable :: s
+    integer :: lo
+    s = ''
+    if (size(v) == 0) return
+    lo = minval(v)
+    do
+      s = s // ' ' // itoa(lo)
+      if (.not. any(v > lo)) exit
+      lo = minval(v, mask=v > lo)
+    end do
+    s = s(2:)
+  end function distinct_text
 
   !> s with ASCII upper-case letters turned to lower case.
   pure function lower(s) result(t)
