@@ -117,11 +117,16 @@ contains
     call dual_hdiv_bound_kinds(mesh, kind, st)
     if (.not. is_ok(st)) return
     res%nconstraints = count(kind == BOUND_LOWER)
-    allocate (xs(n), zero(n), pts(2, n), stat=ist)
-    if (alloc_failed(ist, st, 'the RT1 dual vectors', 4 * n, BYTES_REAL)) return
+    allocate (xs(n), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 dual vectors', n, BYTES_REAL)) return
     xs = 0.0_dp
-    zero = 0.0_dp
-    call hdiv_dof_points(mesh, pts)
+    if (trim(settings%method) /= 'nested' .or. .not. present(nest)) then
+      ! the factorising methods: the points of the unknowns for the ordering, a zero bound
+      allocate (zero(n), pts(2, n), stat=ist)
+      if (alloc_failed(ist, st, 'the RT1 dual vectors', 3 * n, BYTES_REAL)) return
+      zero = 0.0_dp
+      call hdiv_dof_points(mesh, pts)
+    end if
     if (trim(settings%method) == 'uzawa') then
       call solve_uzawa(sys, kind, pts, settings, xs, res, st)
     else if (trim(settings%method) == 'nested' .and. present(nest)) then
@@ -134,7 +139,7 @@ contains
         call dual_hdiv_solve(mesh, f, rule, dual_p1_settings_t(method='active_set', max_iter=settings%max_iter, &
                              ordering=settings%ordering), x, res, st, u_primal, load=load)
         if (.not. is_ok(st)) return
-        nest%rec_k = sys%rec_k
+        call move_alloc(sys%rec_k, nest%rec_k)
         call mg_add_level(nest%mg, sys%a, nest%p_next, [1], [integer ::], kind == BOUND_LOWER, st)
         nest%q = x
         return
@@ -160,10 +165,14 @@ contains
     allocate (x(hdiv_nfield(mesh)), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 dual field', hdiv_nfield(mesh), BYTES_REAL)) return
     call hdiv_recover(mesh, sys, xs, x)
-    if (present(nest)) then
-      if (trim(settings%method) == 'nested') nest%q = x
-    end if
     if (present(sys_out)) sys_out = sys
+    if (present(nest)) then
+      ! the level's condensation is the hierarchy's now (hdiv_prolongation_matrix needs it)
+      if (trim(settings%method) == 'nested') then
+        nest%q = x
+        call move_alloc(sys%rec_k, nest%rec_k)
+      end if
+    end if
   end subroutine dual_hdiv_solve
 
   !> Bound kinds of the side unknowns: BOUND_LOWER (>= 0) on boundary edges, free otherwise.
@@ -265,7 +274,6 @@ contains
     ! vertex patches of all side unknowns (the held ones are taken out by mg_hold)
     call vertex_patches(mesh, kind == kind, ptr, idx, st=st)
     if (.not. is_ok(st)) return
-    nest%rec_k = sys%rec_k
     call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, kind == BOUND_LOWER, st)
     if (.not. is_ok(st)) return
     nest%ready = .false.
