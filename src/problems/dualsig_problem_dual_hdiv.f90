@@ -87,7 +87,7 @@ contains
   !> solution, for the first active set (complementarity) and the start.  st carries
   !> DS_WARN_NOT_CONVERGED when the iteration limit was reached (x is still feasible).
   !> sys_out (optional) returns the condensed system (for tests).
-  recursive subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out, nest, load)
+  subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out, nest, load)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
@@ -101,16 +101,18 @@ contains
     type(load_data_t), intent(in), optional :: load        !! the load data of f: f enters through it
     type(hdiv_system_t) :: sys
     integer, allocatable :: kind(:)
-    real(dp), allocatable :: xs(:), zero(:), pts(:,:)
-    type(active_set_settings_t) :: aset
-    type(active_set_result_t) :: ares
+    real(dp), allocatable :: xs(:)
     integer :: n, ist
+    logical :: nested, inexact
 
     if (all(trim(settings%method) /= [character(len=10) :: 'active_set', 'uzawa', 'nested'])) then
       call set_error(st, DS_ERR_INPUT, 'dual P1 (hdiv): unknown method "' // trim(settings%method) // &
         '"; expected active_set, uzawa or nested')
       return
     end if
+    nested = trim(settings%method) == 'nested' .and. present(nest)
+    inexact = .false.
+    if (nested) inexact = nest%ready
     call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal, load)
     if (.not. is_ok(st)) return
     n = sys%a%n
@@ -120,43 +122,15 @@ contains
     allocate (xs(n), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 dual vectors', n, BYTES_REAL)) return
     xs = 0.0_dp
-    if (trim(settings%method) /= 'nested' .or. .not. present(nest)) then
-      ! the factorising methods: the points of the unknowns for the ordering, a zero bound
-      allocate (zero(n), pts(2, n), stat=ist)
-      if (alloc_failed(ist, st, 'the RT1 dual vectors', 3 * n, BYTES_REAL)) return
-      zero = 0.0_dp
-      call hdiv_dof_points(mesh, pts)
-    end if
     if (trim(settings%method) == 'uzawa') then
-      call solve_uzawa(sys, kind, pts, settings, xs, res, st)
-    else if (trim(settings%method) == 'nested' .and. present(nest)) then
-      if (nest%ready) then
-        xs = nest%q(1:n)
-        call solve_nested(mesh, sys, kind, settings, nest, xs, res, st, u_primal)
-      else
-        ! the first level: solved exactly, the coarsest level of the hierarchy
-        call dual_hdiv_nested_free(nest)
-        call dual_hdiv_solve(mesh, f, rule, dual_p1_settings_t(method='active_set', max_iter=settings%max_iter, &
-                             ordering=settings%ordering), x, res, st, u_primal, load=load)
-        if (.not. is_ok(st)) return
-        call move_alloc(sys%rec_k, nest%rec_k)
-        call mg_add_level(nest%mg, sys%a, nest%p_next, [1], [integer ::], kind == BOUND_LOWER, st)
-        nest%q = x
-        return
-      end if
+      call solve_uzawa(mesh, sys, kind, settings, xs, res, st)
+    else if (inexact) then
+      xs = nest%q(1:n)
+      call solve_nested(mesh, sys, kind, settings, nest, xs, res, st, u_primal)
     else
-      if (present(u_primal)) call dual_hdiv_start(mesh, u_primal, xs)
-      aset%max_iter = settings%max_iter
-      call select_ordering(settings%ordering, pts, sys%a, aset%ordering, aset%perm, st)
-      if (.not. is_ok(st)) return
-      call active_set_solve(sys%a, sys%b, kind, zero, xs, aset, ares, st)
-      res%iterations = ares%iterations
-      res%factorisations = ares%factorisations
-      res%lowrank_solves = ares%lowrank_solves
-      res%residual = ares%kkt_residual
-      res%converged = ares%converged
-      res%nnz_factor = ares%nnz_factor
-      res%ordering = ares%ordering
+      ! 'active_set', and the first level of 'nested' (the coarsest level of its hierarchy)
+      if (nested) call dual_hdiv_nested_free(nest)
+      call solve_active_set(mesh, sys, kind, settings, xs, res, st, u_primal)
     end if
     if (.not. is_ok(st)) return
     ! feasible by construction (active set) or by projection (Uzawa)
@@ -166,14 +140,49 @@ contains
     if (alloc_failed(ist, st, 'the RT1 dual field', hdiv_nfield(mesh), BYTES_REAL)) return
     call hdiv_recover(mesh, sys, xs, x)
     if (present(sys_out)) sys_out = sys
-    if (present(nest)) then
-      ! the level's condensation is the hierarchy's now (hdiv_prolongation_matrix needs it)
-      if (trim(settings%method) == 'nested') then
-        nest%q = x
-        call move_alloc(sys%rec_k, nest%rec_k)
-      end if
+    if (nested) then
+      ! the level's condensation is the hierarchy's now (hdiv_prolongation_matrix needs it);
+      ! an exactly solved first level becomes the hierarchy's coarsest level
+      nest%q = x
+      call move_alloc(sys%rec_k, nest%rec_k)
+      if (.not. inexact) call mg_add_level(nest%mg, sys%a, nest%p_next, [1], [integer ::], kind == BOUND_LOWER, st)
     end if
   end subroutine dual_hdiv_solve
+
+  !> The exact solve of method 'active_set': the primal-dual active-set method on the
+  !> condensed system, one CHOLMOD factorisation in the ordering of settings, started from
+  !> u_primal when given (dual_hdiv_start).
+  subroutine solve_active_set(mesh, sys, kind, settings, xs, res, st, u_primal)
+    type(mesh_t), intent(in) :: mesh
+    type(hdiv_system_t), intent(in) :: sys
+    integer, intent(in) :: kind(:)
+    type(dual_p1_settings_t), intent(in) :: settings
+    real(dp), intent(inout) :: xs(:)
+    type(dual_p1_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st
+    real(dp), intent(in), optional :: u_primal(:)
+    type(active_set_settings_t) :: aset
+    type(active_set_result_t) :: ares
+    real(dp), allocatable :: zero(:), pts(:,:)
+    integer :: n, ist
+    n = size(xs)
+    allocate (zero(n), pts(2, n), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 dual vectors', 3 * n, BYTES_REAL)) return
+    zero = 0.0_dp
+    call hdiv_dof_points(mesh, pts)
+    if (present(u_primal)) call dual_hdiv_start(mesh, u_primal, xs)
+    aset%max_iter = settings%max_iter
+    call select_ordering(settings%ordering, pts, sys%a, aset%ordering, aset%perm, st)
+    if (.not. is_ok(st)) return
+    call active_set_solve(sys%a, sys%b, kind, zero, xs, aset, ares, st)
+    res%iterations = ares%iterations
+    res%factorisations = ares%factorisations
+    res%lowrank_solves = ares%lowrank_solves
+    res%residual = ares%kkt_residual
+    res%converged = ares%converged
+    res%nnz_factor = ares%nnz_factor
+    res%ordering = ares%ordering
+  end subroutine solve_active_set
 
   !> Bound kinds of the side unknowns: BOUND_LOWER (>= 0) on boundary edges, free otherwise.
   !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
@@ -432,10 +441,10 @@ contains
 
   !> The paper's Uzawa algorithm (Section 3) on the condensed system with B = the rows
   !> e_i^T of the bounded unknowns: S factorised once by CHOLMOD.
-  subroutine solve_uzawa(sys, kind, pts, settings, xs, res, st)
+  subroutine solve_uzawa(mesh, sys, kind, settings, xs, res, st)
+    type(mesh_t), intent(in) :: mesh
     type(hdiv_system_t), intent(in) :: sys
     integer, intent(in) :: kind(:)
-    real(dp), intent(in) :: pts(:,:)
     type(dual_p1_settings_t), intent(in) :: settings
     real(dp), intent(inout) :: xs(:)
     type(dual_p1_result_t), intent(inout) :: res
@@ -445,11 +454,14 @@ contains
     type(uzawa_settings_t) :: uset
     type(uzawa_result_t) :: ures
     integer, allocatable :: rows(:), cols(:), perm(:), row_kind(:)
-    real(dp), allocatable :: vals(:), z(:), zero(:)
+    real(dp), allocatable :: vals(:), z(:), zero(:), pts(:,:)
     integer :: m, i, ord, ist
     m = count(kind == BOUND_LOWER)
     allocate (rows(m), cols(m), vals(m), z(m), zero(m), row_kind(m), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 constraint rows', 6 * m, BYTES_REAL)) return
+    allocate (pts(2, sys%a%n), stat=ist)
+    if (alloc_failed(ist, st, 'the points of the RT1 unknowns', 2 * sys%a%n, BYTES_REAL)) return
+    call hdiv_dof_points(mesh, pts)
     vals = 1.0_dp
     z = 0.0_dp
     zero = 0.0_dp
