@@ -20,7 +20,7 @@ module dualsig_estimate_dual_p2
   use dualsig_load_data, only: load_data_t
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_elements_equilibrium, only: equilibrium_field, equilibrium_c_of
-  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_value
+  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda_points, bubble_value
   use dualsig_status, only: status_t
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
   implicit none
@@ -55,14 +55,16 @@ contains
     type(dual_p2_bounds_t), intent(out) :: bnd
     type(status_t), intent(out) :: st
     integer :: ist
-    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, flux(2), ub(2), len
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), e1, fu, uu, flux(2), ub(2), len
     real(dp) :: bary(3)
+    real(dp), allocatable :: lam(:,:)
     type(tri_points_t) :: tp
     integer :: t, k, j, i, lv
     allocate (bnd%est_elem(mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     fu = 0.0_dp
     uu = 0.0_dp
+    allocate (lam(2, 0))
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       call p1_gradients(xy, grad, area)
@@ -70,10 +72,14 @@ contains
       gu = matmul(grad, ue)
       e1 = 0.0_dp
       call tri_points_set(xy, rule, tp, field%pf%breaks(1:field%pf%nbreaks))
+      if (size(lam, 2) < tp%n) then
+        deallocate (lam)
+        allocate (lam(2, 2 * tp%n))
+      end if
+      call dual_p2_lambda_points(field, mesh, f, t, tp, lam(:, 1:tp%n))
       do k = 1, tp%n
-        lam = dual_p2_lambda(field, mesh, f, t, tp%bary(:, k))
-        e1 = e1 + tp%w(k) * sum((lam - gu)**2)
-        bnd%energy_hi = bnd%energy_hi + tp%w(k) * sum(lam**2)
+        e1 = e1 + tp%w(k) * sum((lam(:, k) - gu)**2)
+        bnd%energy_hi = bnd%energy_hi + tp%w(k) * sum(lam(:, k)**2)
         fu = fu + tp%w(k) * f%value(tp%p(1, k), tp%p(2, k)) * dot_product(tp%bary(:, k), ue)
       end do
       uu = uu + area * sum(gu**2)
@@ -203,14 +209,21 @@ contains
     class(vector_field_t), intent(in) :: grad_u
     type(tri_rule_t), intent(in) :: rule
     real(dp) :: xy(2, 3)
+    real(dp), allocatable :: lam(:,:)
     type(tri_points_t) :: tp
     integer :: t, k
     err = 0.0_dp
+    allocate (lam(2, 0))
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       call tri_points_set(xy, rule, tp, field%pf%breaks(1:field%pf%nbreaks))
+      if (size(lam, 2) < tp%n) then
+        deallocate (lam)
+        allocate (lam(2, 2 * tp%n))
+      end if
+      call dual_p2_lambda_points(field, mesh, f, t, tp, lam(:, 1:tp%n))
       do k = 1, tp%n
-        err = err + tp%w(k) * sum((grad_u%value(tp%p(1, k), tp%p(2, k)) - dual_p2_lambda(field, mesh, f, t, tp%bary(:, k)))**2)
+        err = err + tp%w(k) * sum((grad_u%value(tp%p(1, k), tp%p(2, k)) - lam(:, k))**2)
       end do
     end do
     err = sqrt(err)

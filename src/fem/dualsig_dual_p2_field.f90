@@ -19,12 +19,13 @@ module dualsig_dual_p2_field
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_elements_equilibrium, only: equilibrium_field_xy
+  use dualsig_elements_equilibrium, only: equilibrium_field_xy, equilibrium_c_of
+  use dualsig_quadrature, only: tri_points_t
   use dualsig_particular_field, only: particular_field_t, lambda_f_at
   implicit none
   private
 
-  public :: dual_p2_field_t, dual_p2_lambda, bubble_coefficients, bubble_value
+  public :: dual_p2_field_t, dual_p2_lambda, dual_p2_lambda_points, bubble_coefficients, bubble_value
 
   type :: dual_p2_field_t
     logical :: polynomial = .false.         !! lambda^f is beta_f (else pf)
@@ -63,6 +64,38 @@ contains
     p = matmul(xy, bary)
     v = lambda_f_at(field%pf, mesh, f, t, p(1), p(2)) + equilibrium_field_xy(xy, field%beta(:, t), bary)
   end function dual_p2_lambda
+
+  !> lambda^h = lambda^f + q^h at every point of tp, a point set of triangle t: lam(:, k) is
+  !> dual_p2_lambda at tp%bary(:, k), to the last bit, with C_e beta formed once for the
+  !> triangle instead of once per point.
+  subroutine dual_p2_lambda_points(field, mesh, f, t, tp, lam)
+    type(dual_p2_field_t), intent(in) :: field
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    integer, intent(in) :: t
+    type(tri_points_t), intent(in) :: tp
+    real(dp), intent(out) :: lam(:,:)        !! (2, tp%n)
+    real(dp) :: xy(2, 3), w(6), p(2)
+    integer :: k
+    do k = 1, 3
+      xy(:, k) = mesh%xy(:, mesh%tri(k, t))
+    end do
+    if (field%polynomial) then
+      w = matmul(equilibrium_c_of(xy), field%beta(:, t) + field%beta_f(:, t))
+    else
+      w = matmul(equilibrium_c_of(xy), field%beta(:, t))
+    end if
+    do k = 1, tp%n
+      ! the sum of equilibrium_field, in its order
+      lam(:, k) = tp%bary(1, k) * w(1:2) + tp%bary(2, k) * w(3:4) + tp%bary(3, k) * w(5:6)
+      if (field%polynomial) then
+        lam(:, k) = lam(:, k) + bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
+      else
+        p = matmul(xy, tp%bary(:, k))
+        lam(:, k) = lambda_f_at(field%pf, mesh, f, t, p(1), p(2)) + lam(:, k)
+      end if
+    end do
+  end subroutine dual_p2_lambda_points
 
   !> The coefficients c of the bubble with div sigma = -g . (x - x_T) on the triangle xy.
   pure function bubble_coefficients(xy, g) result(c)
