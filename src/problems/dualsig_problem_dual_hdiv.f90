@@ -47,7 +47,7 @@ module dualsig_problem_dual_hdiv
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_assembly_dual_hdiv, only: hdiv_system_t, assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, &
                                         hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate_interior, hdiv_prolongation_matrix
-  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t
+  use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_result_from_active_set
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
@@ -175,13 +175,7 @@ contains
     call select_ordering(settings%ordering, pts, sys%a, aset%ordering, aset%perm, st)
     if (.not. is_ok(st)) return
     call active_set_solve(sys%a, sys%b, kind, zero, xs, aset, ares, st)
-    res%iterations = ares%iterations
-    res%factorisations = ares%factorisations
-    res%lowrank_solves = ares%lowrank_solves
-    res%residual = ares%kkt_residual
-    res%converged = ares%converged
-    res%nnz_factor = ares%nnz_factor
-    res%ordering = ares%ordering
+    call dual_p1_result_from_active_set(ares, res)
   end subroutine solve_active_set
 
   !> Bound kinds of the side unknowns: BOUND_LOWER (>= 0) on boundary edges, free otherwise.

@@ -42,6 +42,7 @@ module dualsig_problem_dual_p1
   implicit none
   private
 
+  public :: dual_p1_result_from_active_set
   public :: dual_p1_transforms, dual_p1_constraint_rows, dual_p1_nodewise, &
             dual_p1_feasible_q, dual_p1_settings_t, dual_p1_result_t, dual_p1_solve, dual_p1_ordering
 
@@ -72,6 +73,20 @@ module dualsig_problem_dual_p1
   real(dp), parameter :: min_corner_det = 1.0e-8_dp
 
 contains
+
+  !> The counters of an active-set solve (iterations, factorisations, bordered solves, KKT
+  !> residual, convergence, factor size, ordering) copied into the dual's result.
+  subroutine dual_p1_result_from_active_set(ares, res)
+    type(active_set_result_t), intent(in) :: ares
+    type(dual_p1_result_t), intent(inout) :: res
+    res%iterations = ares%iterations
+    res%factorisations = ares%factorisations
+    res%lowrank_solves = ares%lowrank_solves
+    res%residual = ares%kkt_residual
+    res%converged = ares%converged
+    res%nnz_factor = ares%nnz_factor
+    res%ordering = ares%ordering
+  end subroutine dual_p1_result_from_active_set
 
   !> Solve the dual problem (3.2) on `mesh` and return a FEASIBLE field q (interleaved
   !> nodal values, 2 nnode): q.nu >= 0 at every boundary node with the normals of its sides.
@@ -163,13 +178,7 @@ contains
       if (st%code /= 0) return
       call active_set_solve(a, b, kind, zero, s, aset, ares, st)
       if (.not. is_ok(st)) return
-      res%iterations = ares%iterations
-      res%factorisations = ares%factorisations
-      res%lowrank_solves = ares%lowrank_solves
-      res%residual = ares%kkt_residual
-      res%converged = ares%converged
-      res%nnz_factor = ares%nnz_factor
-      res%ordering = ares%ordering
+      call dual_p1_result_from_active_set(ares, res)
       res%nactive = ares%nactive
       call dual_p1_nodewise(t, s, y)
       call dual_p1_feasible_q(t, tinv, kind, y, q)
