@@ -64,7 +64,7 @@ contains
     if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     fu = 0.0_dp
     uu = 0.0_dp
-    allocate (lam(2, 0))
+    allocate (lam(2, 0))                        ! small: grown to the points of one triangle
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       call p1_gradients(xy, grad, area)
@@ -74,7 +74,7 @@ contains
       call tri_points_set(xy, rule, tp, field%pf%breaks(1:field%pf%nbreaks))
       if (size(lam, 2) < tp%n) then
         deallocate (lam)
-        allocate (lam(2, 2 * tp%n))
+        allocate (lam(2, 2 * tp%n))               ! small: the points of one triangle
       end if
       call dual_p2_lambda_points(field, mesh, f, t, tp, lam(:, 1:tp%n))
       do k = 1, tp%n
@@ -213,13 +213,13 @@ contains
     type(tri_points_t) :: tp
     integer :: t, k
     err = 0.0_dp
-    allocate (lam(2, 0))
+    allocate (lam(2, 0))                        ! small: grown to the points of one triangle
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
       call tri_points_set(xy, rule, tp, field%pf%breaks(1:field%pf%nbreaks))
       if (size(lam, 2) < tp%n) then
         deallocate (lam)
-        allocate (lam(2, 2 * tp%n))
+        allocate (lam(2, 2 * tp%n))               ! small: the points of one triangle
       end if
       call dual_p2_lambda_points(field, mesh, f, t, tp, lam(:, 1:tp%n))
       do k = 1, tp%n

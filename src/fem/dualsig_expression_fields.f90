@@ -9,7 +9,7 @@
 module dualsig_expression_fields
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t, vector_field_t
-  use dualsig_expression, only: expression_t, expression_value, expression_value_grad
+  use dualsig_expression, only: expression_t, expression_value, expression_value_grad, expression_eval
   implicit none
   private
 
@@ -20,6 +20,7 @@ module dualsig_expression_fields
     type(expression_t) :: expr                   !! the compiled expression
   contains
     procedure :: value => expression_field_value
+    procedure :: values_at => expression_field_values
   end type expression_field_t
 
   !> The gradient of a compiled expression, by forward-mode automatic differentiation:
@@ -51,6 +52,15 @@ contains
     real(dp), intent(in) :: x, y
     v = expression_value(self%expr, x, y)
   end function expression_field_value
+
+  !> The values at many points, the expression run instruction by instruction over blocks of
+  !> points (expression_eval: the same operations per point as expression_value).
+  subroutine expression_field_values(self, x, y, v)
+    class(expression_field_t), intent(in) :: self
+    real(dp), intent(in) :: x(:), y(:)
+    real(dp), intent(out) :: v(:)
+    call expression_eval(self%expr, x, y, v)
+  end subroutine expression_field_values
 
   function expression_gradient_value(self, x, y) result(g)
     class(expression_gradient_t), intent(in) :: self

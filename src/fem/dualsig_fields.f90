@@ -31,10 +31,13 @@ module dualsig_fields
     end function vector_field
   end interface
 
-  !> A scalar field of position: f%value(x, y).
+  !> A scalar field of position: f%value(x, y); f%values_at(x, y, v) at many points at once
+  !> (v(i) = f%value(x(i), y(i)); a field whose evaluation has a per-call overhead, such as
+  !> a compiled expression, overrides it).
   type, abstract :: field_t
   contains
     procedure(field_value), deferred :: value
+    procedure :: values_at => field_values
   end type field_t
 
   !> A vector field of position: g%value(x, y) of size 2.
@@ -73,6 +76,17 @@ module dualsig_fields
   end type function_vector_field_t
 
 contains
+
+  !> v(i) = self%value(x(i), y(i)) for every i (the default of field_t%values_at).
+  recursive subroutine field_values(self, x, y, v)
+    class(field_t), intent(in) :: self
+    real(dp), intent(in) :: x(:), y(:)
+    real(dp), intent(out) :: v(:)
+    integer :: i
+    do i = 1, size(x)
+      v(i) = self%value(x(i), y(i))
+    end do
+  end subroutine field_values
 
   !> The field of the plain function fn.
   function function_field(fn) result(field)

@@ -108,7 +108,7 @@ contains
     integer, intent(in), optional :: origin(:)
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp_work, tp_top(0:4)
-    real(dp), allocatable :: br(:), br_local(:), v_work(:), v_top(:,:)
+    real(dp), allocatable :: br(:), br_local(:), v_work(:), v_top(:,:), xq(:), yq(:)
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     logical :: ok1, ok2, keep
     integer :: t, k, budget
@@ -120,7 +120,7 @@ contains
     br = [real(dp) ::]
     if (present(breaks)) br = breaks
     rule = tri_rule(5)
-    allocate (v_work(4 * rule%n), v_top(4 * rule%n, 0:4), stat=k)
+    allocate (v_work(4 * rule%n), v_top(4 * rule%n, 0:4), xq(4 * rule%n), yq(4 * rule%n), stat=k)
     if (alloc_failed(k, st, 'the cubature values', 24_i8 * rule%n, BYTES_REAL)) return
     call global_scales(abs_density, sq_density)
     data%scales = [abs_density, sq_density]
@@ -270,20 +270,14 @@ contains
           deallocate (v_work)
           allocate (v_work(2 * tp_work%n))              ! small: the points of one piece
         end if
-        do q = 1, tp_work%n
-          v_work(q) = f%value(centroid(1) + tp_work%p(1, q), centroid(2) + tp_work%p(2, q))
-        end do
-        data%evaluations = data%evaluations + tp_work%n
+        call f_at_points(f, centroid, tp_work, v_work, xq, yq, data%evaluations)
         s = sums_of(tp_work, v_work, fbar, slope, second)
         return
       end if
       if (.not. second) then
         call tri_points_set(xy, rule, tp_top(slot), br_local)
         if (tp_top(slot)%n > size(v_top, 1)) call grow_top(tp_top(slot)%n)
-        do q = 1, tp_top(slot)%n
-          v_top(q, slot) = f%value(centroid(1) + tp_top(slot)%p(1, q), centroid(2) + tp_top(slot)%p(2, q))
-        end do
-        data%evaluations = data%evaluations + tp_top(slot)%n
+        call f_at_points(f, centroid, tp_top(slot), v_top(:, slot), xq, yq, data%evaluations)
       end if
       s = sums_of(tp_top(slot), v_top(:, slot), fbar, slope, second)
     end function piece_sums
@@ -298,6 +292,28 @@ contains
     end subroutine grow_top
 
   end subroutine load_data_build
+
+  !> v(1:tp%n) = f at the points of tp, given in coordinates about centroid, all at once
+  !> (f%values_at); xq, yq are work arrays, grown when needed; evaluations counts them.
+  subroutine f_at_points(f, centroid, tp, v, xq, yq, evaluations)
+    class(field_t), intent(in) :: f
+    real(dp), intent(in) :: centroid(2)
+    type(tri_points_t), intent(in) :: tp
+    real(dp), intent(inout) :: v(:)
+    real(dp), allocatable, intent(inout) :: xq(:), yq(:)
+    integer, intent(inout) :: evaluations
+    integer :: q
+    if (tp%n > size(xq)) then
+      deallocate (xq, yq)
+      allocate (xq(2 * tp%n), yq(2 * tp%n))       ! small: the points of one piece
+    end if
+    do q = 1, tp%n
+      xq(q) = centroid(1) + tp%p(1, q)
+      yq(q) = centroid(2) + tp%p(2, q)
+    end do
+    call f%values_at(xq(1:tp%n), yq(1:tp%n), v(1:tp%n))
+    evaluations = evaluations + tp%n
+  end subroutine f_at_points
 
   !> Whether load_data_build may keep prev's data where origin points (data%scales set):
   !> origin fits both meshes and the scales are at least (1 - load_keep_slack) prev's.
