@@ -1502,13 +1502,24 @@ contains
     do i = 1, size(inputs)
       if (len(inputs(i)%s) == 0) cycle
       do o = 1, size(outputs)
-        if (.not. same_file(outputs(o)%s, inputs(i)%s)) cycle
-        call set_error(st, DS_ERR_IO, where // 'the output file ' // outputs(o)%s // ' is the input file ' // &
-          inputs(i)%s // ' of this run (expected an output name that does not overwrite the namelist, mesh ' // &
-          'or load file)')
-        return
+        if (same_file(outputs(o)%s, inputs(i)%s)) call refuse(outputs(o)%s, inputs(i)%s)
+        if (.not. is_ok(st)) return
+      end do
+      ! the ParaView files of the levels (or adaptive steps) the run may write
+      do o = 1, merge(max_rows(cfg), 0, cfg%vtk)
+        if (same_file(vtk_level_path(cfg%output, o), inputs(i)%s)) call refuse(vtk_level_path(cfg%output, o), inputs(i)%s)
+        if (.not. is_ok(st)) return
       end do
     end do
+
+  contains
+
+    subroutine refuse(output, input)
+      character(len=*), intent(in) :: output, input
+      call set_error(st, DS_ERR_IO, where // 'the output file ' // output // ' is the input file ' // &
+        input // ' of this run (expected an output name that does not overwrite the namelist, mesh ' // &
+        'or load file)')
+    end subroutine refuse
   end subroutine check_output_not_input
 
 end module dualsig_driver
