@@ -99,6 +99,11 @@ module dualsig_analysis
   real(dp), parameter :: exact_consistency_tol = 1.0e-2_dp
   !> explain_small_p1_domain: a P1 domain of smaller diameter may fail for its scale.
   real(dp), parameter :: p1_small_domain = 1.0e-3_dp
+  !> A lower energy bound below this fraction of the upper one is no lower bound for the
+  !> certified relative error sqrt(est / energy_lo): it is at the rounding level of the
+  !> energy (u_h = 0 on a coarse mesh gives 1e-47 against 10), and the quotient (1e24) is a
+  !> valid but meaningless bound; the column is left empty instead.
+  real(dp), parameter :: energy_lo_rel_floor = 1.0e-12_dp
   !> Why an adaptive loop stops (analysis_adapt_stop): not yet; the certified relative error
   !> reached tol; max_ndof unknowns reached; the next step would end after max_seconds; the
   !> largest number of steps (adapt_max_steps, the two digits of the .vtu names).
@@ -728,11 +733,13 @@ contains
   end subroutine finish_level
 
   !> The certified relative error sqrt(est / energy_lo) of a level: huge when the level is
-  !> not certified or energy_lo <= 0 (no guaranteed relative error yet).
+  !> not certified or energy_lo <= energy_lo_rel_floor energy_hi (no useful guaranteed
+  !> relative error yet).
   pure real(dp) function certified_rel_error(res) result(rel)
     type(level_result_t), intent(in) :: res
     rel = huge(1.0_dp)
-    if (res%has_dual .and. res%certified .and. res%energy_lo > 0.0_dp) rel = sqrt(max(res%est, 0.0_dp) / res%energy_lo)
+    if (res%has_dual .and. res%certified .and. res%energy_lo > 0.0_dp .and. &
+        res%energy_lo > energy_lo_rel_floor * res%energy_hi) rel = sqrt(max(res%est, 0.0_dp) / res%energy_lo)
   end function certified_rel_error
 
   !> Whether the adaptive loop stops after the step res (ADAPT_*): tol reached by a

@@ -1354,12 +1354,13 @@ contains
     end associate
   end subroutine write_run_files
 
-  !> A certified relative error as printed: 'none (no certified step)' for huge (no bound).
+  !> A certified relative error as printed: 'none (...)' for huge (no certified step with a
+  !> useful lower energy bound).
   function rel_text(rel) result(text)
     real(dp), intent(in) :: rel
     character(len=:), allocatable :: text
     if (rel >= huge(1.0_dp)) then
-      text = 'none (no certified step)'
+      text = 'none (no certified step with a positive lower energy bound)'
     else
       text = rtoa(rel)
     end if
