@@ -40,6 +40,11 @@ module dualsig_expression
   public :: expression_compile, expression_compile_input, expression_input_message
   public :: expression_eval, expression_value, expression_eval_grad, expression_value_grad
   public :: expression_check_finite
+  ! the bytecode, for evaluators in other modules (dualsig_expression_range)
+  public :: OP_CONST, OP_X, OP_Y, OP_NEG, OP_SQR, OP_POWC, OP_NOT, OP_SIN, OP_COS, OP_TAN, OP_ASIN, &
+            OP_ACOS, OP_ATAN, OP_EXP, OP_LOG, OP_LOG10, OP_SQRT, OP_ABS, OP_SINH, OP_COSH, OP_TANH, &
+            OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW, OP_ATAN2, OP_MIN, OP_MAX, OP_LT, OP_LE, OP_GT, OP_GE, &
+            OP_EQ, OP_NE, OP_AND, OP_OR, OP_IF, OP_ELSE, OP_END
 
   !> A compiled expression.  `code(1, k)` is the opcode of instruction k, `code(2, k)` its
   !> argument (a constant's index, a jump target), `consts` the constants, `depth` the
