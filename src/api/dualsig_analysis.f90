@@ -1398,14 +1398,26 @@ contains
     if (load%nunconverged > 0 .and. load%budget_spent) then
       call add_warning(res, DS_WARN_NOT_CERTIFIED, 'the integrals of f did not converge on ' // &
         itoa(load%nunconverged) // ' triangle(s): the cubature spent its budget of evaluations (f varies on ' // &
-        'the scale of the triangles or below; a finer mesh, more &mesh levels, may certify it): ' // &
-        'the bounds are NOT certified')
+        'the scale of the triangles or below, and a finer mesh, more &mesh levels, may certify it; unless f ' // &
+        'is singular there, as 1/(x - c), or its values are rounding noise, as on a domain far from the ' // &
+        'origin for its size: then no mesh does)' // guard_note(load) // ': the bounds are NOT certified')
     else if (load%nunconverged > 0) then
       call add_warning(res, DS_WARN_NOT_CERTIFIED, 'the integrals of f did not converge on ' // &
-        itoa(load%nunconverged) // ' triangle(s) (f jumps or varies below the resolution of the cubature): ' // &
-        'the bounds are NOT certified')
+        itoa(load%nunconverged) // ' triangle(s) (f jumps or varies below the resolution of the cubature' // &
+        guard_note(load) // '): the bounds are NOT certified')
     end if
   end subroutine level_load_data
+
+  !> '; its enclosure ...' when the load data's interval check found f with values its
+  !> cubature points did not show (load_data_t%nguarded), else ''.
+  function guard_note(load) result(note)
+    type(load_data_t), intent(in) :: load
+    character(len=:), allocatable :: note
+    note = ''
+    if (load%nguarded > 0) note = '; on ' // itoa(load%nguarded) // ' piece(s) the interval enclosure of f ' // &
+      'reaches values its cubature points do not show: a strip or spike between them, or a jump; declare ' // &
+      'its line in &problem breaks or use a mesh that resolves it'
+  end function guard_note
 
   !> The P2 dual field of the level by dual_p2_solve with the settings dset (the kinks of f
   !> passed when the problem has them).

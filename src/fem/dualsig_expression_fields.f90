@@ -10,6 +10,7 @@ module dualsig_expression_fields
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_expression, only: expression_t, expression_value, expression_value_grad, expression_eval
+  use dualsig_expression_range, only: expression_range
   implicit none
   private
 
@@ -21,6 +22,7 @@ module dualsig_expression_fields
   contains
     procedure :: value => expression_field_value
     procedure :: values_at => expression_field_values
+    procedure :: range_on_box => expression_field_range
   end type expression_field_t
 
   !> The gradient of a compiled expression, by forward-mode automatic differentiation:
@@ -61,6 +63,18 @@ contains
     real(dp), intent(out) :: v(:)
     call expression_eval(self%expr, x, y, v)
   end subroutine expression_field_values
+
+  !> An enclosure of the values on a box by interval arithmetic (expression_range); the whole
+  !> real line where none is found.
+  subroutine expression_field_range(self, box, lo, hi, known, enough)
+    class(expression_field_t), intent(in) :: self
+    real(dp), intent(in) :: box(2, 2)
+    real(dp), intent(out) :: lo, hi
+    logical, intent(out) :: known
+    real(dp), intent(in), optional :: enough(2)
+    call expression_range(self%expr, box, lo, hi, enough)
+    known = .true.
+  end subroutine expression_field_range
 
   function expression_gradient_value(self, x, y) result(g)
     class(expression_gradient_t), intent(in) :: self

@@ -29,7 +29,7 @@ module dualsig_load_data
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
-  use dualsig_status, only: status_t, set_error, DS_ERR_INPUT, DS_ERR_NUMERIC
+  use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
@@ -66,6 +66,15 @@ module dualsig_load_data
   !> are not converged, and the level, which has unconverged triangles anyway (a converging
   !> triangle needs far fewer), is not certified.
   integer(i8), parameter :: load_mesh_pieces_fixed = 8_i8 * load_max_pieces, load_mesh_pieces_per_tri = 64_i8
+  !> range_consistent: an enclosure of f on a piece may exceed the range of f at the piece's
+  !> points by guard_spread times that range (the bounding box is up to twice the piece, and
+  !> the enclosure of a smooth f is of second order: a few times the range at most) plus
+  !> guard_rel_floor times the scale of |f| (rounding); beyond, the piece is subdivided.
+  real(dp), parameter :: guard_spread = 4.0_dp, guard_rel_floor = 1.0e-9_dp
+  !> range_consistent encloses f on the piece's bounding box less a band of this fraction of
+  !> its width along each side (f's value on a side, a jump along a mesh line, is a set of
+  !> measure zero for the integrals).
+  real(dp), parameter :: guard_box_shrink = 1.0e-9_dp
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
@@ -84,6 +93,9 @@ module dualsig_load_data
     !> the scales of f over the domain the thresholds used (int |f| / |Omega|, int f^2 / |Omega|)
     real(dp) :: scales(2) = -1.0_dp
     integer :: nkept = 0                    !! triangles whose data was kept from prev (load_data_build)
+    !> pieces whose cubature had converged but whose enclosure of f left the range of f at
+    !> their points (range_consistent): subdivided further
+    integer :: nguarded = 0
   end type load_data_t
 
   !> Sums of one pass over a piece: int f, int f (x - x_T), int f (y - y_T), int f^2,
@@ -110,22 +122,21 @@ contains
     type(tri_points_t) :: tp_work, tp_top(0:4)
     real(dp), allocatable :: br(:), br_local(:), v_work(:), v_top(:,:), xq(:), yq(:)
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
-    logical :: ok1, ok2, keep
+    real(dp) :: prange(2)                         ! the range of f at the points of the current piece
+    logical :: ok1, ok2, keep, top_ok
     integer :: t, k, budget
     integer(i8) :: mesh_budget
-    data%ntri = mesh%ntri
-    allocate (data%mean(mesh%ntri), data%moment(2, mesh%ntri), data%slope(2, mesh%ntri), data%osc(mesh%ntri), &
-              data%diameter(mesh%ntri), data%converged(mesh%ntri), stat=k)
-    if (alloc_failed(k, st, 'the load data of the triangles', 11 * mesh%ntri, BYTES_REAL)) return
+    call load_data_allocate(data, mesh%ntri, st)
+    if (.not. is_ok(st)) return
     br = [real(dp) ::]
     if (present(breaks)) br = breaks
     rule = tri_rule(5)
     allocate (v_work(4 * rule%n), v_top(4 * rule%n, 0:4), xq(4 * rule%n), yq(4 * rule%n), stat=k)
     if (alloc_failed(k, st, 'the cubature values', 24_i8 * rule%n, BYTES_REAL)) return
+    prange = [huge(1.0_dp), -huge(1.0_dp)]
     call global_scales(abs_density, sq_density)
     data%scales = [abs_density, sq_density]
-    keep = .false.
-    if (present(prev) .and. present(origin)) keep = may_keep(data, prev, origin)
+    keep = may_keep(data, prev, origin)
     mesh_budget = load_mesh_pieces_fixed + load_mesh_pieces_per_tri * mesh%ntri
     do t = 1, mesh%ntri
       if (keep) then                              ! a triangle of prev's mesh: its data kept
@@ -177,6 +188,7 @@ contains
       integer :: c, stalled
       ! the pieces of depth 0 keep their points and values from the first pass for the
       ! second (the same pieces: f is evaluated there once)
+      prange = [huge(1.0_dp), -huge(1.0_dp)]
       coarse = piece_sums(xy, fbar, second, merge(0, -1, depth == 0))
       call children(xy, kids)
       fine = 0.0_dp
@@ -199,6 +211,11 @@ contains
       else
         ok = abs(fine(1) - coarse(1)) <= tol .and. all(abs(fine(2:3) - coarse(2:3)) <= tol * diameter)
       end if
+      ! and f must not leave the range of its values at the points by more than the guard allows
+      ! (a strip or a spike between them); the triangle's points are the same in both passes
+      if (depth == 0 .and. .not. second) top_ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded)
+      if (depth == 0) ok = ok .and. top_ok
+      if (ok .and. depth > 0) ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded)
       ! the disagreement per unit area falls by about 2^6 per level where the rule resolves f;
       ! where it has not at least halved over max_stalls consecutive levels (from
       ! stagnation_depth on) f jumps inside the piece or its evaluation is at its rounding
@@ -263,7 +280,6 @@ contains
       logical, intent(in) :: second
       integer, intent(in) :: slot
       real(dp) :: s(nsum)
-      integer :: q
       if (slot < 0) then
         call tri_points_set(xy, rule, tp_work, br_local)
         if (tp_work%n > size(v_work)) then
@@ -272,6 +288,7 @@ contains
         end if
         call f_at_points(f, centroid, tp_work, v_work, xq, yq, data%evaluations)
         s = sums_of(tp_work, v_work, fbar, slope, second)
+        call extend_range(prange, v_work(1:tp_work%n))
         return
       end if
       if (.not. second) then
@@ -280,6 +297,7 @@ contains
         call f_at_points(f, centroid, tp_top(slot), v_top(:, slot), xq, yq, data%evaluations)
       end if
       s = sums_of(tp_top(slot), v_top(:, slot), fbar, slope, second)
+      call extend_range(prange, v_top(1:tp_top(slot)%n, slot))
     end function piece_sums
 
     !> v_top with room for n values a slot (the values kept).
@@ -315,12 +333,67 @@ contains
     evaluations = evaluations + tp%n
   end subroutine f_at_points
 
+  !> The arrays of data for ntri triangles.  Out of memory: DS_ERR_MEMORY in st.
+  subroutine load_data_allocate(data, ntri, st)
+    type(load_data_t), intent(inout) :: data
+    integer, intent(in) :: ntri
+    type(status_t), intent(inout) :: st
+    integer :: ist
+    data%ntri = ntri
+    allocate (data%mean(ntri), data%moment(2, ntri), data%slope(2, ntri), data%osc(ntri), &
+              data%diameter(ntri), data%converged(ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the load data of the triangles', 11 * ntri, BYTES_REAL)) return
+  end subroutine load_data_allocate
+
+  !> prange := the hull of prange and the values v.
+  pure subroutine extend_range(prange, v)
+    real(dp), intent(inout) :: prange(2)
+    real(dp), intent(in) :: v(:)
+    prange = [min(prange(1), minval(v)), max(prange(2), maxval(v))]
+  end subroutine extend_range
+
+  !> Whether the values of f on the piece xy (in coordinates about centroid) may be those its
+  !> cubature points show, prange = [pmin, pmax]: .false. when f's enclosure on the piece's bounding
+  !> box (field_t%range_on_box, where the field can give one) reaches beyond them by more
+  !> than guard_spread times their spread plus guard_rel_floor times the scale of |f|
+  !> (abs_density): f then has a feature between the points (a strip, a spike) that the
+  !> cubature's agreement cannot see; nguarded counts these.  A field without enclosures,
+  !> and a piece f is not finite at, pass.
+  logical function range_consistent(f, centroid, xy, prange, abs_density, nguarded) result(ok)
+    class(field_t), intent(in) :: f
+    real(dp), intent(in) :: centroid(2), xy(2, 3), prange(2), abs_density
+    integer, intent(inout) :: nguarded
+    real(dp) :: box(2, 2), lo, hi, margin, pmin, pmax
+    logical :: known
+    ok = .true.
+    pmin = prange(1)
+    pmax = prange(2)
+    if (.not. (ieee_is_finite(pmin) .and. ieee_is_finite(pmax))) return
+    ! the box of the points f is evaluated at (centroid + p rounds monotonically in p), less
+    ! a band of guard_box_shrink of its width along its sides: a jump of f along a side (a
+    ! mesh line, a break) is a set of measure zero there, and no feature of the integrals
+    box(:, 1) = [minval(xy(1, :)), maxval(xy(1, :))]
+    box(:, 2) = [minval(xy(2, :)), maxval(xy(2, :))]
+    box(1, :) = box(1, :) + guard_box_shrink * (box(2, :) - box(1, :))
+    box(2, :) = box(2, :) - guard_box_shrink * (box(2, :) - box(1, :))
+    box(:, 1) = centroid(1) + box(:, 1)
+    box(:, 2) = centroid(2) + box(:, 2)
+    margin = guard_spread * (pmax - pmin) + guard_rel_floor * max(abs_density, abs(pmin), abs(pmax))
+    call f%range_on_box(box, lo, hi, known, enough=[pmin - margin, pmax + margin])
+    if (.not. known) return
+    ok = lo >= pmin - margin .and. hi <= pmax + margin
+    if (.not. ok) nguarded = nguarded + 1
+  end function range_consistent
+
   !> Whether load_data_build may keep prev's data where origin points (data%scales set):
-  !> origin fits both meshes and the scales are at least (1 - load_keep_slack) prev's.
+  !> both given, origin fits both meshes and the scales are at least (1 - load_keep_slack)
+  !> prev's.
   pure logical function may_keep(data, prev, origin)
-    type(load_data_t), intent(in) :: data, prev
-    integer, intent(in) :: origin(:)
+    type(load_data_t), intent(in) :: data
+    type(load_data_t), intent(in), optional :: prev
+    integer, intent(in), optional :: origin(:)
     may_keep = .false.
+    if (.not. (present(prev) .and. present(origin))) return
     if (size(origin) /= data%ntri .or. prev%ntri <= 0 .or. .not. allocated(prev%mean)) return
     may_keep = all(data%scales >= (1.0_dp - load_keep_slack) * prev%scales) .and. all(origin <= prev%ntri)
   end function may_keep
@@ -354,6 +427,7 @@ contains
     to%evaluations = from%evaluations
     to%scales = from%scales
     to%nkept = from%nkept
+    to%nguarded = from%nguarded
     from = load_data_t()
   end subroutine load_data_move
 
