@@ -24,8 +24,10 @@
 !> ITER: sweeps (METHOD 1) or active-set iterations (METHOD 2).
 !> RES: the relative KKT residual of the returned X (dualsig_solver_psor kkt_residual).
 !> INFO: 0 RES <= TOL; 1 RES > TOL (iteration limit reached; X is the feasible last
-!>       iterate); 2 numerical failure (A not positive definite: the Cholesky factorisation
-!>       failed or the iterate became non-finite; X is not a solution; or out of memory);
+!>       iterate); 2 numerical failure (A not positive definite: a Lanczos estimate of the
+!>       smallest eigenvalue of D^(-1/2) A D^(-1/2) is negative, checked before the solve, or
+!>       the Cholesky factorisation failed or the iterate became non-finite; X is not a
+!>       solution; or out of memory);
 !>       -k argument k is invalid (k = 1..12, positions as in the argument list).
 subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter, res, info)
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -36,6 +38,7 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_status, only: status_t, is_ok
   use dualsig_alloc, only: alloc_failed, BYTES_INT
+  use dualsig_f77_adapter, only: f77_transpose_csr, f77_no_negative_curvature
   implicit none
   integer, intent(in) :: n                 !! order of A (>= 1)
   integer, intent(in) :: ia(n + 1)         !! row pointers, IA(1) = 1, non-decreasing
@@ -91,8 +94,8 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
     end if
   end do
   ! sorted copy: two counting-sort transposes order the columns of every row
-  call transpose_csr(ia, ja(1:nnz), a(1:nnz), rp, ci, v, st)
-  if (is_ok(st)) call transpose_csr(rp, ci, v, mat%rowptr, mat%col, mat%val, st)
+  call f77_transpose_csr(ia, ja(1:nnz), a(1:nnz), rp, ci, v, st)
+  if (is_ok(st)) call f77_transpose_csr(rp, ci, v, mat%rowptr, mat%col, mat%val, st)
   mat%n = n
   if (is_ok(st)) then
     allocate (mat%diag(n), stat=ist)
@@ -160,6 +163,13 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
     return
   end if
 
+  ! ---- A positive definite, as far as a few Lanczos steps can refute it: a KKT point of an
+  ! indefinite A need not be its minimiser (INFO 0 was returned at such a point)
+  if (.not. f77_no_negative_curvature(mat)) then
+    info = 2
+    return
+  end if
+
   ! ---- solve
   if (method == 1) then
     pset%omega = omega
@@ -187,42 +197,6 @@ subroutine dsbqp(n, ia, ja, a, f, kind, bnd, x, method, omega, tol, maxit, iter,
   where (kind == BOUND_FIXED) x = bnd
   if (res > tol) info = 1
 
-contains
-
-  !> The transpose (CSC of the input = CSR of A^T) by a counting sort: the entries of each
-  !> output row come in increasing input-row order.  Applied twice, it sorts the columns.
-  subroutine transpose_csr(rp_in, ci_in, v_in, rp_out, ci_out, v_out, st)
-    integer, intent(in) :: rp_in(:), ci_in(:)
-    real(dp), intent(in) :: v_in(:)
-    integer, allocatable, intent(out) :: rp_out(:), ci_out(:)
-    real(dp), allocatable, intent(out) :: v_out(:)
-    type(status_t), intent(inout) :: st
-    integer :: r, q, c, m, ist
-    m = size(rp_in) - 1
-    allocate (rp_out(m + 1), ci_out(size(ci_in)), v_out(size(ci_in)), stat=ist)
-    if (alloc_failed(ist, st, 'a copy of the matrix', m + 1 + 3 * size(ci_in), BYTES_INT)) return
-    rp_out = 0
-    do q = 1, size(ci_in)
-      rp_out(ci_in(q) + 1) = rp_out(ci_in(q) + 1) + 1
-    end do
-    rp_out(1) = 1
-    do r = 1, m
-      rp_out(r + 1) = rp_out(r + 1) + rp_out(r)
-    end do
-    do r = 1, m
-      do q = rp_in(r), rp_in(r + 1) - 1
-        c = ci_in(q)
-        ci_out(rp_out(c)) = r
-        v_out(rp_out(c)) = v_in(q)
-        rp_out(c) = rp_out(c) + 1
-      end do
-    end do
-    ! rp_out(c) now points one past row c: shift back
-    do r = m, 1, -1
-      rp_out(r + 1) = rp_out(r)
-    end do
-    rp_out(1) = 1
-  end subroutine transpose_csr
 end subroutine dsbqp
 
 !> DSSIGN: the primal and dual analysis of problem IPROB on the caller's mesh, one level

@@ -23,10 +23,13 @@ module dualsig_f77_adapter
   use dualsig_analysis, only: analysis_problem_t, analysis_settings_t, level_result_t, analysis_t, &
                               analysis_start, analysis_next_level
   use dualsig_alloc, only: alloc_failed, BYTES_INT
+  use dualsig_sparse, only: csr_t
+  use dualsig_spectral, only: jacobi_scaled_extremes
   implicit none
   private
 
   public :: dssign_run
+  public :: f77_transpose_csr, f77_no_negative_curvature
   public :: info_primal_limit, info_dual_limit, info_not_admissible, info_failed
 
   ! Defaults of the option slots (the driver's defaults, dualsig_io_config).
@@ -76,6 +79,12 @@ module dualsig_f77_adapter
     integer, allocatable :: head(:), fill(:), hi(:), count(:), from(:,:)
     integer :: nbside = 0
   end type side_table_t
+
+  !> DSBQP's definiteness check (f77_no_negative_curvature): Lanczos steps on
+  !> D^(-1/2) A D^(-1/2) at most, and the smallest Ritz value below -indefinite_rel_tol times
+  !> the largest that proves A indefinite (Ritz values lie in the spectrum).
+  integer, parameter :: definiteness_steps = 60
+  real(dp), parameter :: indefinite_rel_tol = 1.0e-8_dp
 
 contains
 
@@ -767,4 +776,57 @@ contains
       end do
     end do
   end subroutine vertex_field
+
+  !> DSBQP's definiteness check: .false. when the smallest Ritz value of the Jacobi-scaled A
+  !> (jacobi_scaled_extremes, at most definiteness_steps Lanczos steps) is below
+  !> -indefinite_rel_tol times the largest: A is then indefinite.  .true. says only that
+  !> none was found.
+  logical function f77_no_negative_curvature(a) result(ok)
+    type(csr_t), intent(in) :: a
+    real(dp) :: lmin, lmax
+    integer :: steps
+    type(status_t) :: st_l
+    logical, allocatable :: everywhere(:)
+    allocate (everywhere(a%n), stat=steps)
+    ok = .true.
+    if (steps /= 0) return                  ! no memory for the check: the solve will say so
+    everywhere = .true.
+    call jacobi_scaled_extremes(a, everywhere, definiteness_steps, 0.0_dp, lmin, lmax, steps, st_l)
+    if (is_ok(st_l)) ok = .not. (lmin < -indefinite_rel_tol * abs(lmax))
+  end function f77_no_negative_curvature
+
+  !> The transpose (CSC of the input = CSR of A^T) by a counting sort: the entries of each
+  !> output row come in increasing input-row order.  Applied twice, it sorts the columns.
+  subroutine f77_transpose_csr(rp_in, ci_in, v_in, rp_out, ci_out, v_out, st)
+    integer, intent(in) :: rp_in(:), ci_in(:)
+    real(dp), intent(in) :: v_in(:)
+    integer, allocatable, intent(out) :: rp_out(:), ci_out(:)
+    real(dp), allocatable, intent(out) :: v_out(:)
+    type(status_t), intent(inout) :: st
+    integer :: r, q, c, m, ist
+    m = size(rp_in) - 1
+    allocate (rp_out(m + 1), ci_out(size(ci_in)), v_out(size(ci_in)), stat=ist)
+    if (alloc_failed(ist, st, 'a copy of the matrix', m + 1 + 3 * size(ci_in), BYTES_INT)) return
+    rp_out = 0
+    do q = 1, size(ci_in)
+      rp_out(ci_in(q) + 1) = rp_out(ci_in(q) + 1) + 1
+    end do
+    rp_out(1) = 1
+    do r = 1, m
+      rp_out(r + 1) = rp_out(r + 1) + rp_out(r)
+    end do
+    do r = 1, m
+      do q = rp_in(r), rp_in(r + 1) - 1
+        c = ci_in(q)
+        ci_out(rp_out(c)) = r
+        v_out(rp_out(c)) = v_in(q)
+        rp_out(c) = rp_out(c) + 1
+      end do
+    end do
+    ! rp_out(c) now points one past row c: shift back
+    do r = m, 1, -1
+      rp_out(r + 1) = rp_out(r)
+    end do
+    rp_out(1) = 1
+  end subroutine f77_transpose_csr
 end module dualsig_f77_adapter
