@@ -116,7 +116,8 @@ contains
     if (present(notes)) notes = nt
   end subroutine mesh_read_gmsh
 
-  !> The markers of the physical curves named in `names` (blank entries give 0), for the
+  !> The markers of the physical curves named in `names` (blank entries skipped; a name given
+  !> to several physical curves gives all their tags, in the order of $PhysicalNames), for the
   !> namelist item `item`, from the physical names `phys` of mesh file `path`.  A name that
   !> is not a physical curve of the file is an error naming the item, the file, the name and
   !> the curve names the file has.
@@ -126,22 +127,22 @@ contains
     character(len=*), intent(in) :: item, path
     integer, allocatable, intent(out) :: markers(:)
     type(status_t), intent(inout) :: st
-    integer :: k, j, jany
+    integer :: k, j, jany, ncurve
 
-    allocate (markers(size(names)), source=0)        ! small: the names of one namelist item
+    allocate (markers(0))                            ! small: grown by the tags of one namelist item
     do k = 1, size(names)
       if (len_trim(names(k)) == 0) cycle
-      j = 0
       jany = 0
+      ncurve = 0
+      ! every physical curve of that name (a name given to several curve groups names them all)
       do j = 1, phys%n
         if (trim(phys%name(j)) /= trim(names(k))) cycle
         if (jany == 0) jany = j
-        if (phys%dim(j) == 1) exit
+        if (phys%dim(j) /= 1) cycle
+        ncurve = ncurve + 1
+        markers = [markers, phys%tag(j)]
       end do
-      if (j <= phys%n) then
-        markers(k) = phys%tag(j)
-        cycle
-      end if
+      if (ncurve > 0) cycle
       if (jany > 0) then
         call set_error(st, DS_ERR_INPUT, item // ": '" // trim(names(k)) // "' is a physical group of " // &
           'dimension ' // itoa(phys%dim(jany)) // " in mesh file '" // path // &
