@@ -54,9 +54,9 @@ contains
     integer :: ist
     real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), fq, uq, qq(2)
-    real(dp) :: e1, e2, fu, uu, qn(2), ub(2), len
+    real(dp) :: e1, e2, fu, uu
     type(tri_points_t) :: tp
-    integer :: t, k, j, a, b
+    integer :: t, k
     allocate (bnd%est_elem(mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
     fu = 0.0_dp

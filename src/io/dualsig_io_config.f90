@@ -537,7 +537,8 @@ contains
           if (len_trim(rest) > 0 .and. rest(1:1) /= '!') then
             call set_error(st, DS_ERR_INPUT, trim(path) // ': line ' // itoa(i) // ': "' // &
               trim(rest(1:min(len_trim(rest), 30))) // '" after the ''/'' that closes the &' // trim(gname(ng)) // &
-              ' group (expected nothing but a comment there; start the next group on a new line)')
+              ' group (expected nothing but a comment there; start the next group on a new line' // &
+              slash_hint(cur, k) // ')')
             allocate (groups(0))                    ! small: empty
             return
           end if
@@ -599,13 +600,39 @@ contains
     end subroutine grow_body
   end subroutine split_groups
 
+  !> When the '/' at cur(k:k) ends a word that follows '=' (output = out/run), the hint that
+  !> a '/' inside a value must be quoted, with the value quoted; '' otherwise.
+  pure function slash_hint(cur, k) result(hint)
+    character(len=*), intent(in) :: cur
+    integer, intent(in) :: k
+    character(len=:), allocatable :: hint
+    integer :: b, e
+    hint = ''
+    if (k < 2) return
+    if (index(' ,=', cur(k - 1:k - 1)) > 0) return
+    b = k - 1
+    do while (b > 1)
+      if (index(' ,=', cur(b - 1:b - 1)) > 0) exit
+      b = b - 1
+    end do
+    if (b < 2) return
+    if (adjustl(cur(1:b - 1)) == '') return
+    if (cur(len_trim(cur(1:b - 1)):len_trim(cur(1:b - 1))) /= '=') return
+    e = k + 1
+    do while (e <= len_trim(cur))
+      if (index(' ,/', cur(e:e)) > 0) exit
+      e = e + 1
+    end do
+    hint = "; or, if the '/' belongs to a value such as a path, quote the value: '" // cur(b:e - 1) // "'"
+  end function slash_hint
+
   !> Line i of a namelist file as the group reader sees it: a UTF-8 byte order mark at the
   !> start of the file dropped, tabs read as blanks (both are common in edited files).
   pure function namelist_line(line, i) result(cur)
     character(len=*), intent(in) :: line
     integer, intent(in) :: i
     character(len=len(line)) :: cur
-    character(len=3), parameter :: bom = achar(239) // achar(187) // achar(191)
+    character(len=3), parameter :: bom = char(239) // char(187) // char(191)   ! EF BB BF
     integer :: k
     cur = line
     if (i == 1 .and. len(line) >= 3) then
