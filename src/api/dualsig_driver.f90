@@ -40,7 +40,7 @@ module dualsig_driver
                               table_format_header, observed_rate, table_show
   use dualsig_io_table, only: table_write_latex
   use dualsig_io_vtk, only: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_run_files, &
-                            vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, &
+                            vtk_discard_run, vtk_level_path, vtk_contact_status, mesh_edges_write, vtk_remove_stale, &
                             mesh_edges_path
   use dualsig_strings, only: itoa, i8toa, rtoa, distinct_text
   use dualsig_clock, only: resident_memory_mb, peak_memory_mb
@@ -1306,6 +1306,7 @@ contains
     character(len=len_trim(run%cfg%output) + 16), allocatable :: paths(:)
     character(len=:), allocatable :: header(:)
     character(len=300) :: line
+    integer :: nstale
     associate (cfg => run%cfg)
       txt_path = trim(cfg%output) // '.txt'
       csv_path = trim(cfg%output) // '.csv'
@@ -1347,6 +1348,9 @@ contains
         ' (gnuplot: plot ''' // mesh_edges_path(cfg%output) // ''' with lines; make plots)'
       if (cfg%vtk) write (unit, '(a)') 'dualsig: ParaView files written: ' // trim(cfg%output) // &
         '.pvd and ' // itoa(nlevel) // ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu'
+      if (cfg%vtk) call vtk_remove_stale(cfg%output, nlevel, nstale)
+      if (cfg%vtk .and. nstale > 0) write (unit, '(a)') 'dualsig: removed ' // itoa(nstale) // &
+        ' level file(s) ' // trim(cfg%output) // '_levelLL.vtu of an earlier run with more levels'
       if (run%nonconverged > 0) call set_warning(st, DS_WARN_NOT_CONVERGED, &
         itoa(run%nonconverged) // ' solve(s) of run "' // trim(run_name(cfg)) // '" did not converge')
       if (run%uncertified > 0) call set_warning(st, DS_WARN_NOT_CERTIFIED, &

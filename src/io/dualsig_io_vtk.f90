@@ -46,13 +46,14 @@ module dualsig_io_vtk
   use dualsig_status, only: status_t, set_error, set_alloc_error, DS_ERR_IO, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER, BOUND_FIXED
-  use dualsig_io_files, only: temp_name, file_delete, file_commit_all, text_file_t, text_open, text_put, text_close, &
+  use dualsig_io_files, only: temp_name, file_delete, file_exists, file_commit_all, text_file_t, text_open, text_put, text_close, &
                               text_abandon
   use dualsig_strings, only: itoa
   implicit none
   private
 
   public :: vtk_fields_t, vtk_write_level, vtk_write_collection, vtk_commit_run, vtk_discard_run, vtk_run_files
+  public :: vtk_remove_stale
   public :: vtk_level_path, vtk_collection_path, vtk_contact_status, mesh_edges_write, mesh_edges_path
   public :: CONTACT_INTERIOR, CONTACT_SEPARATED, CONTACT_ACTIVE, CONTACT_DIRICHLET
   public :: VTU_BINARY, VTU_ASCII, vtu_format_valid, vtu_binary_text, vtu_block_bytes, vtu_zlib_level
@@ -63,6 +64,8 @@ module dualsig_io_vtk
   integer, parameter :: CONTACT_DIRICHLET = 2   !! node on the closure of Gamma_u (u = 0)
 
   integer, parameter :: vtk_triangle = 5        !! VTK cell type VTK_TRIANGLE
+  !> The most level files of a run: the two digits of <output>_levelLL.vtu.
+  integer, parameter :: vtk_max_levels = 99
   !> Characters of a node's line in the gnuplot mesh file: x and y as es24.15e3.
   integer, parameter :: node_line_len = 48
 
@@ -354,6 +357,23 @@ contains
     end do
     call file_delete(temp_name(vtk_collection_path(output)))
   end subroutine vtk_discard_run
+
+  !> Remove the level files <output>_levelLL.vtu, LL = nlevel + 1 to 99 (the most levels or
+  !> adaptive steps of a run), left by an earlier run into the same output with more levels:
+  !> a ParaView user opening the group of level files would see them beside the new ones.
+  !> nremoved: how many there were.
+  subroutine vtk_remove_stale(output, nlevel, nremoved)
+    character(len=*), intent(in) :: output
+    integer, intent(in) :: nlevel
+    integer, intent(out) :: nremoved
+    integer :: level
+    nremoved = 0
+    do level = nlevel + 1, vtk_max_levels
+      if (.not. file_exists(vtk_level_path(output, level))) cycle
+      call file_delete(vtk_level_path(output, level))
+      nremoved = nremoved + 1
+    end do
+  end subroutine vtk_remove_stale
 
   !> The gnuplot file of a run's final mesh: `<output>_mesh.dat`.
   pure function mesh_edges_path(output) result(path)
