@@ -78,15 +78,19 @@ contains
     subroutine enclose(whole, centre, m, cf)
       type(ivd_t), intent(out) :: whole, centre
       real(dp), intent(out) :: m(2), cf(2)
-      whole = run_segment(expr, 1, expr%n, box)
-      lo = whole%v(1)
-      hi = whole%v(2)
+      ! the natural enclosure alone first (no gradient) when an enclosure within enough suffices
       if (present(enough)) then
+        whole = run_segment(expr, 1, expr%n, box, .false.)
+        lo = whole%v(1)
+        hi = whole%v(2)
         if (lo >= enough(1) .and. hi <= enough(2)) return
       end if
+      whole = run_segment(expr, 1, expr%n, box, .true.)
+      lo = whole%v(1)
+      hi = whole%v(2)
       if (whole%smooth .and. all(ieee_is_finite([whole%gx, whole%gy]))) then
         m = 0.5_dp * (box(1, :) + box(2, :))
-        centre = run_segment(expr, 1, expr%n, reshape([m(1), m(1), m(2), m(2)], [2, 2]))
+        centre = run_segment(expr, 1, expr%n, reshape([m(1), m(1), m(2), m(2)], [2, 2]), .false.)
         cf = iv_add(iv_add(centre%v, iv_mul(whole%gx, iv_sub(box(:, 1), [m(1), m(1)]))), &
                     iv_mul(whole%gy, iv_sub(box(:, 2), [m(2), m(2)])))
         if (all(ieee_is_finite(cf))) then
@@ -99,10 +103,11 @@ contains
   end subroutine expression_range
 
   !> The enclosure of the instructions pc0..pc1 (a whole expression or a branch of an if).
-  recursive function run_segment(expr, pc0, pc1, box) result(r)
+  recursive function run_segment(expr, pc0, pc1, box, grad) result(r)
     type(expression_t), intent(in) :: expr
     integer, intent(in) :: pc0, pc1
     real(dp), intent(in) :: box(2, 2)
+    logical, intent(in) :: grad               !! the gradient wanted (else every value is marked not smooth)
     type(ivd_t) :: r
     type(ivd_t) :: s(max(expr%depth, 1)), a, b
     integer :: pc, t, op, pelse, pend
@@ -116,10 +121,10 @@ contains
         s(t) = ivd_t(v=[expr%consts(expr%code(2, pc)), expr%consts(expr%code(2, pc))])
       case (OP_X)
         t = t + 1
-        s(t) = ivd_t(v=box(:, 1), gx=[1.0_dp, 1.0_dp])
+        s(t) = ivd_t(v=box(:, 1), gx=[1.0_dp, 1.0_dp], smooth=grad)
       case (OP_Y)
         t = t + 1
-        s(t) = ivd_t(v=box(:, 2), gy=[1.0_dp, 1.0_dp])
+        s(t) = ivd_t(v=box(:, 2), gy=[1.0_dp, 1.0_dp], smooth=grad)
       case (OP_POWC)
         s(t) = ivd_powc(s(t), expr%consts(expr%code(2, pc)))
       case (OP_IF)
@@ -127,12 +132,12 @@ contains
         pend = expr%code(2, pelse)
         select case (truth(s(t)%v))
         case (1)
-          s(t) = run_segment(expr, pc + 1, pelse - 1, box)
+          s(t) = run_segment(expr, pc + 1, pelse - 1, box, grad)
         case (0)
-          s(t) = run_segment(expr, pelse + 1, pend - 1, box)
+          s(t) = run_segment(expr, pelse + 1, pend - 1, box, grad)
         case default
-          a = run_segment(expr, pc + 1, pelse - 1, box)
-          b = run_segment(expr, pelse + 1, pend - 1, box)
+          a = run_segment(expr, pc + 1, pelse - 1, box, grad)
+          b = run_segment(expr, pelse + 1, pend - 1, box, grad)
           s(t) = ivd_t(v=[min(a%v(1), b%v(1)), max(a%v(2), b%v(2))], smooth=.false.)
         end select
         pc = pend
@@ -154,7 +159,8 @@ contains
 
   ! ------------------------------------------------------------------ interval dual numbers
 
-  !> A unary operation: the value's enclosure, the gradient's by the chain rule u'(A) dA.
+  !> A unary operation: the value's enclosure, and where a is smooth the gradient's by the
+  !> chain rule u'(A) dA.
   pure function ivd_unary(op, a) result(r)
     integer, intent(in) :: op
     type(ivd_t), intent(in) :: a
@@ -167,35 +173,43 @@ contains
       r%gx = [-a%gx(2), -a%gx(1)]
       r%gy = [-a%gy(2), -a%gy(1)]
       return
-    case (OP_NOT)
-      r = logical_result(1 - truth(a%v))
-      return
-    case (OP_SQR); r%v = iv_sqr(a%v); d = iv_scale(2.0_dp, a%v)
-    case (OP_SIN); r%v = iv_sin(a%v); d = iv_sin(iv_add(a%v, [0.5_dp * pi, 0.5_dp * pi]))
-    case (OP_COS); r%v = iv_sin(iv_add(a%v, [0.5_dp * pi, 0.5_dp * pi])); d = iv_scale(-1.0_dp, iv_sin(a%v))
-    case (OP_TAN); r%v = iv_tan(a%v); d = iv_add([1.0_dp, 1.0_dp], iv_sqr(r%v))
-    case (OP_ASIN, OP_ACOS)
-      r%v = iv_arc(op, a%v)
-      d = iv_div([1.0_dp, 1.0_dp], iv_sqrt(iv_sub([1.0_dp, 1.0_dp], iv_sqr(a%v))))
-      if (op == OP_ACOS) d = iv_scale(-1.0_dp, d)
-    case (OP_ATAN); r%v = iv_mono(op, a%v); d = iv_div([1.0_dp, 1.0_dp], iv_add([1.0_dp, 1.0_dp], iv_sqr(a%v)))
-    case (OP_EXP); r%v = iv_mono(op, a%v); d = r%v
-    case (OP_LOG); r%v = iv_log(a%v, 1.0_dp); d = iv_div([1.0_dp, 1.0_dp], a%v)
-    case (OP_LOG10)
-      r%v = iv_log(a%v, 1.0_dp / log(10.0_dp))
-      d = iv_div([1.0_dp, 1.0_dp], iv_scale(log(10.0_dp), a%v))
-    case (OP_SQRT); r%v = iv_sqrt(a%v); d = iv_div([0.5_dp, 0.5_dp], r%v)
-    case (OP_ABS)
-      r%v = iv_abs(a%v)
-      d = [-1.0_dp, 1.0_dp]
-      if (a%v(1) >= 0.0_dp) d = [1.0_dp, 1.0_dp]
-      if (a%v(2) <= 0.0_dp) d = [-1.0_dp, -1.0_dp]
-    case (OP_SINH); r%v = iv_mono(op, a%v); d = iv_cosh(a%v)
-    case (OP_COSH); r%v = iv_cosh(a%v); d = iv_mono(OP_SINH, a%v)
-    case (OP_TANH); r%v = iv_mono(op, a%v); d = iv_sub([1.0_dp, 1.0_dp], iv_sqr(r%v))
+    case (OP_NOT); r = logical_result(1 - truth(a%v)); return
+    case (OP_SQR); r%v = iv_sqr(a%v)
+    case (OP_SIN); r%v = iv_sin(a%v)
+    case (OP_COS); r%v = iv_sin(iv_add(a%v, [0.5_dp * pi, 0.5_dp * pi]))
+    case (OP_TAN); r%v = iv_tan(a%v)
+    case (OP_ASIN, OP_ACOS); r%v = iv_arc(op, a%v)
+    case (OP_ATAN, OP_EXP, OP_SINH, OP_TANH); r%v = iv_mono(op, a%v)
+    case (OP_LOG); r%v = iv_log(a%v, 1.0_dp)
+    case (OP_LOG10); r%v = iv_log(a%v, 1.0_dp / log(10.0_dp))
+    case (OP_SQRT); r%v = iv_sqrt(a%v)
+    case (OP_ABS); r%v = iv_abs(a%v)
+    case (OP_COSH); r%v = iv_cosh(a%v)
     case default
       r = ivd_t(v=entire_iv(), smooth=.false.)
       return
+    end select
+    if (.not. r%smooth) return                ! no gradient wanted (or none exists)
+    select case (op)
+    case (OP_SQR); d = iv_scale(2.0_dp, a%v)
+    case (OP_SIN); d = iv_sin(iv_add(a%v, [0.5_dp * pi, 0.5_dp * pi]))
+    case (OP_COS); d = iv_scale(-1.0_dp, iv_sin(a%v))
+    case (OP_TAN); d = iv_add([1.0_dp, 1.0_dp], iv_sqr(r%v))
+    case (OP_ASIN, OP_ACOS)
+      d = iv_div([1.0_dp, 1.0_dp], iv_sqrt(iv_sub([1.0_dp, 1.0_dp], iv_sqr(a%v))))
+      if (op == OP_ACOS) d = iv_scale(-1.0_dp, d)
+    case (OP_ATAN); d = iv_div([1.0_dp, 1.0_dp], iv_add([1.0_dp, 1.0_dp], iv_sqr(a%v)))
+    case (OP_EXP); d = r%v
+    case (OP_LOG); d = iv_div([1.0_dp, 1.0_dp], a%v)
+    case (OP_LOG10); d = iv_div([1.0_dp, 1.0_dp], iv_scale(log(10.0_dp), a%v))
+    case (OP_SQRT); d = iv_div([0.5_dp, 0.5_dp], r%v)
+    case (OP_ABS)
+      d = [-1.0_dp, 1.0_dp]
+      if (a%v(1) >= 0.0_dp) d = [1.0_dp, 1.0_dp]
+      if (a%v(2) <= 0.0_dp) d = [-1.0_dp, -1.0_dp]
+    case (OP_SINH); d = iv_cosh(a%v)
+    case (OP_COSH); d = iv_mono(OP_SINH, a%v)
+    case (OP_TANH); d = iv_sub([1.0_dp, 1.0_dp], iv_sqr(r%v))
     end select
     r%gx = iv_mul(d, a%gx)
     r%gy = iv_mul(d, a%gy)
@@ -209,6 +223,7 @@ contains
     real(dp) :: d(2)
     r%smooth = a%smooth
     r%v = iv_powc(a%v, c)
+    if (.not. r%smooth) return
     d = iv_scale(c, iv_powc(a%v, c - 1.0_dp))
     if (c == 0.0_dp) d = [0.0_dp, 0.0_dp]
     r%gx = iv_mul(d, a%gx)
@@ -223,18 +238,22 @@ contains
     r%smooth = a%smooth .and. b%smooth
     select case (op)
     case (OP_ADD)
-      r%v = iv_add(a%v, b%v); r%gx = iv_add(a%gx, b%gx); r%gy = iv_add(a%gy, b%gy)
+      r%v = iv_add(a%v, b%v)
+      if (r%smooth) r%gx = iv_add(a%gx, b%gx)
+      if (r%smooth) r%gy = iv_add(a%gy, b%gy)
     case (OP_SUB)
-      r%v = iv_sub(a%v, b%v); r%gx = iv_sub(a%gx, b%gx); r%gy = iv_sub(a%gy, b%gy)
+      r%v = iv_sub(a%v, b%v)
+      if (r%smooth) r%gx = iv_sub(a%gx, b%gx)
+      if (r%smooth) r%gy = iv_sub(a%gy, b%gy)
     case (OP_MUL)
       r%v = iv_mul(a%v, b%v)
-      r%gx = iv_add(iv_mul(a%gx, b%v), iv_mul(a%v, b%gx))
-      r%gy = iv_add(iv_mul(a%gy, b%v), iv_mul(a%v, b%gy))
+      if (r%smooth) r%gx = iv_add(iv_mul(a%gx, b%v), iv_mul(a%v, b%gx))
+      if (r%smooth) r%gy = iv_add(iv_mul(a%gy, b%v), iv_mul(a%v, b%gy))
     case (OP_DIV)
       r%v = iv_div(a%v, b%v)
       ! (a/b)' = (a' - (a/b) b') / b
-      r%gx = iv_div(iv_sub(a%gx, iv_mul(r%v, b%gx)), b%v)
-      r%gy = iv_div(iv_sub(a%gy, iv_mul(r%v, b%gy)), b%v)
+      if (r%smooth) r%gx = iv_div(iv_sub(a%gx, iv_mul(r%v, b%gx)), b%v)
+      if (r%smooth) r%gy = iv_div(iv_sub(a%gy, iv_mul(r%v, b%gy)), b%v)
     case (OP_POW)
       r = ivd_pow(a, b)
     case (OP_ATAN2)
@@ -278,6 +297,7 @@ contains
     la = iv_log(a%v, 1.0_dp)
     r%v = iv_mono(OP_EXP, iv_mul(b%v, la))
     r%smooth = a%smooth .and. b%smooth
+    if (.not. r%smooth) return
     ! (a^b)' = a^b (b' log a + b a' / a)
     d1 = iv_div(b%v, a%v)
     r%gx = iv_mul(r%v, iv_add(iv_mul(b%gx, la), iv_mul(d1, a%gx)))
@@ -307,6 +327,7 @@ contains
       c = [atan2(a%v(1), b%v(1)), atan2(a%v(1), b%v(2)), atan2(a%v(2), b%v(1)), atan2(a%v(2), b%v(2))]
       r%v = widen([minval(c), maxval(c)])
       r%smooth = a%smooth .and. b%smooth
+      if (.not. r%smooth) return
       ! d atan2(a, b) = (b da - a db) / (a^2 + b^2)
       n2 = iv_add(iv_sqr(a%v), iv_sqr(b%v))
       r%gx = iv_div(iv_sub(iv_mul(b%v, a%gx), iv_mul(a%v, b%gx)), n2)
