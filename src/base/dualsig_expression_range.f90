@@ -1,15 +1,20 @@
-!> Enclosures of a compiled expression (dualsig_expression) over a box: the range of f(x, y)
-!> for all (x, y) with x_lo <= x <= x_hi, y_lo <= y <= y_hi, by interval arithmetic on the
-!> same bytecode, with the gradient carried along as intervals (interval dual numbers).
+!> Enclosures of a compiled expression (dualsig_expression) over a triangle: the range of
+!> f(x, y) on the closed triangle, by interval arithmetic on the same bytecode, with the
+!> gradient carried along as intervals (interval dual numbers).
 !>
-!> expression_range(expr, box, lo, hi): lo <= f <= hi at every point of the box where f is
-!> defined.  Two enclosures are intersected:
-!> - the natural one: every instruction applied to intervals (x -> [x_lo, x_hi], ...);
-!> - the centred (mean-value) form f(m) + G_x (x - m_x) + G_y (y - m_y), m the centre of the
-!>   box and G the enclosure of the gradient over the box; valid where f is Lipschitz on the
-!>   box (every branch of an `if`, every comparison decided on the whole box; abs, min and
-!>   max with their generalised gradients), and of second order in the size of the box where
-!>   the natural one is only of first order (x*(1-x) near its maximum).
+!> expression_range(expr, tri, lo, hi): lo <= f <= hi at every point of the triangle where f
+!> is defined.  Two enclosures are intersected:
+!> - the natural one: every instruction applied to intervals on the triangle's bounding box
+!>   (x -> [x_lo, x_hi], ...);
+!> - the centred (mean-value) form f(m) + G . (x - m), m the centroid and G the enclosure of
+!>   the gradient on the box, over the triangle itself: for every g in G the linear part has
+!>   its extremes at the vertices.  It holds where f is Lipschitz on the box (abs, min and max
+!>   with their generalised gradients), and it is of second order in the size of the
+!>   triangle where the natural one is only of first order (x*(1-x) near its maximum).
+!> Comparisons, and, or, not and the condition of an `if` are decided by the same centred
+!> form of their operands on the triangle, so a jump along a line that only touches the
+!> triangle (x + y < 1 on a triangle with a side on x + y = 1, shrunk by a rounding margin)
+!> is decided; one that crosses it contributes both branches (and no centred form).
 !> Where an operation may leave its domain on the box (log, sqrt, asin, acos of an interval
 !> reaching outside it, a division by an interval containing 0, a non-integer power of a
 !> negative number) the enclosure is the whole real line (lo = -Inf, hi = +Inf): no claim.
@@ -23,8 +28,8 @@
 !> functions (within a few ulps), so the enclosures hold for the computed intervals' exact
 !> values.  sin and cos test their extrema with the same margin.
 !>
-!> Used by the load data (dualsig_load_data through field_t%range_on_box) to find features of
-!> f that the cubature's points miss (a strip or a spike between them).
+!> Used by the load data (dualsig_load_data through field_t%range_on_triangle) to find
+!> features of f that the cubature's points miss (a strip or a spike between them).
 module dualsig_expression_range
   use, intrinsic :: ieee_arithmetic, only: ieee_is_nan, ieee_is_finite, ieee_value, ieee_positive_inf
   use, intrinsic :: ieee_exceptions, only: ieee_status_type, ieee_get_status, ieee_set_status, &
@@ -42,74 +47,102 @@ module dualsig_expression_range
   !> Relative outward widening of every computed bound (4 ulps).
   real(dp), parameter :: range_rel_widen = 4.0_dp * epsilon(1.0_dp)
 
-  !> An interval dual number: the value's enclosure and the gradient's over the box.
+  !> An interval dual number: the value's enclosure on the box, and where smooth the
+  !> enclosures of the gradient on the box and of the value at the triangle's centroid.
   type :: ivd_t
     real(dp) :: v(2) = 0.0_dp
     real(dp) :: gx(2) = 0.0_dp, gy(2) = 0.0_dp
+    real(dp) :: c(2) = 0.0_dp       !! the value at the centroid m (where smooth)
     logical :: smooth = .true.      !! f Lipschitz on the box, gx, gy enclose its gradient
   end type ivd_t
 
+  !> The triangle, its bounding box and its centroid.
+  type :: geometry_t
+    real(dp) :: tri(2, 3) = 0.0_dp
+    real(dp) :: box(2, 2) = 0.0_dp   !! box(:, 1) = [x_lo, x_hi], box(:, 2) = [y_lo, y_hi]
+    real(dp) :: m(2) = 0.0_dp
+  end type geometry_t
+
 contains
 
-  !> lo <= f(x, y) <= hi on the box [box(1,1), box(2,1)] x [box(1,2), box(2,2)] (the whole
-  !> real line when no finite enclosure is found).  enough (optional): an interval that
-  !> suffices the caller; the centred form is not tried when the natural enclosure lies in it.
-  subroutine expression_range(expr, box, lo, hi, enough)
+  !> lo <= f(x, y) <= hi on the closed triangle tri(:, 1:3) (the whole real line when no
+  !> finite enclosure is found).  enough (optional): an interval that suffices the caller;
+  !> the gradient pass is not made when the natural enclosure on the bounding box lies in it.
+  subroutine expression_range(expr, tri, lo, hi, enough)
     type(expression_t), intent(in) :: expr
-    real(dp), intent(in) :: box(2, 2)
+    real(dp), intent(in) :: tri(2, 3)
     real(dp), intent(out) :: lo, hi
     real(dp), intent(in), optional :: enough(2)
-    type(ivd_t) :: whole, centre
-    real(dp) :: m(2), cf(2)
+    type(geometry_t) :: g
+    type(ivd_t) :: whole
+    real(dp) :: r(2)
     type(ieee_status_type) :: saved
     if (expr%n == 0) then
       lo = 0.0_dp
       hi = 0.0_dp
       return
     end if
+    g%tri = tri
+    g%box(:, 1) = [minval(tri(1, :)), maxval(tri(1, :))]
+    g%box(:, 2) = [minval(tri(2, :)), maxval(tri(2, :))]
+    g%m = sum(tri, dim=2) / 3.0_dp
+    g%m = min(max(g%m, g%box(1, :)), g%box(2, :))       ! in the box despite rounding
     call ieee_get_status(saved)
     call ieee_set_halting_mode(ieee_usual, .false.)
     call ieee_set_halting_mode(ieee_underflow, .false.)
-    call enclose(whole, centre, m, cf)
+    r = entire_iv()
+    ! the natural enclosure on the box alone first (no gradient) when one within enough suffices
+    if (present(enough)) then
+      whole = run_segment(expr, 1, expr%n, g, .false.)
+      r = whole%v
+    end if
+    if (.not. present(enough)) then
+      whole = run_segment(expr, 1, expr%n, g, .true.)
+      r = tri_range(whole, g)
+    else if (.not. (r(1) >= enough(1) .and. r(2) <= enough(2))) then
+      whole = run_segment(expr, 1, expr%n, g, .true.)
+      r = tri_range(whole, g)
+    end if
     call ieee_set_status(saved)
-  contains
-
-    !> The natural enclosure, and the centred one where it is needed and valid.
-    subroutine enclose(whole, centre, m, cf)
-      type(ivd_t), intent(out) :: whole, centre
-      real(dp), intent(out) :: m(2), cf(2)
-      ! the natural enclosure alone first (no gradient) when an enclosure within enough suffices
-      if (present(enough)) then
-        whole = run_segment(expr, 1, expr%n, box, .false.)
-        lo = whole%v(1)
-        hi = whole%v(2)
-        if (lo >= enough(1) .and. hi <= enough(2)) return
-      end if
-      whole = run_segment(expr, 1, expr%n, box, .true.)
-      lo = whole%v(1)
-      hi = whole%v(2)
-      if (whole%smooth .and. all(ieee_is_finite([whole%gx, whole%gy]))) then
-        m = 0.5_dp * (box(1, :) + box(2, :))
-        centre = run_segment(expr, 1, expr%n, reshape([m(1), m(1), m(2), m(2)], [2, 2]), .false.)
-        cf = iv_add(iv_add(centre%v, iv_mul(whole%gx, iv_sub(box(:, 1), [m(1), m(1)]))), &
-                    iv_mul(whole%gy, iv_sub(box(:, 2), [m(2), m(2)])))
-        if (all(ieee_is_finite(cf))) then
-          lo = max(lo, cf(1))
-          hi = min(hi, cf(2))
-        end if
-      end if
-      if (ieee_is_nan(lo) .or. ieee_is_nan(hi) .or. lo > hi) call entire(lo, hi)
-    end subroutine enclose
+    lo = r(1)
+    hi = r(2)
+    if (ieee_is_nan(lo) .or. ieee_is_nan(hi) .or. lo > hi) call entire(lo, hi)
   end subroutine expression_range
 
-  !> The enclosure of the instructions pc0..pc1 (a whole expression or a branch of an if).
-  recursive function run_segment(expr, pc0, pc1, box, grad) result(r)
+  !> The enclosure of q on the triangle: q%v (on the box) intersected, where q is smooth,
+  !> with the centred form q(m) + G . (x - m).  For each g in G the linear part has its
+  !> extremes at the vertices, so its range on the triangle is the hull of G . (v - m) over
+  !> the three vertices v (mean-value theorem, Clarke's for the Lipschitz abs, min, max; the
+  !> segment from m to x lies in the triangle, inside the box where G holds).
+  pure function tri_range(q, g) result(r)
+    type(ivd_t), intent(in) :: q
+    type(geometry_t), intent(in) :: g
+    real(dp) :: r(2), lin(2), e(2)
+    integer :: k
+    r = q%v
+    if (.not. q%smooth) return
+    if (.not. all(ieee_is_finite([q%gx, q%gy, q%c]))) return
+    lin = [huge(1.0_dp), -huge(1.0_dp)]
+    do k = 1, 3
+      e = iv_add(iv_mul(q%gx, iv_sub([g%tri(1, k), g%tri(1, k)], [g%m(1), g%m(1)])), &
+                 iv_mul(q%gy, iv_sub([g%tri(2, k), g%tri(2, k)], [g%m(2), g%m(2)])))
+      lin = [min(lin(1), e(1)), max(lin(2), e(2))]
+    end do
+    e = iv_add(q%c, lin)
+    r = [max(r(1), e(1)), min(r(2), e(2))]
+    if (.not. r(1) <= r(2)) r = q%v
+  end function tri_range
+
+  !> The enclosure of the instructions pc0..pc1 (a whole expression or a branch of an if);
+  !> grad: the gradients and centroid values wanted (else every value is marked not smooth).
+  recursive function run_segment(expr, pc0, pc1, g, grad) result(r)
     type(expression_t), intent(in) :: expr
     integer, intent(in) :: pc0, pc1
-    real(dp), intent(in) :: box(2, 2)
-    logical, intent(in) :: grad               !! the gradient wanted (else every value is marked not smooth)
+    type(geometry_t), intent(in) :: g
+    logical, intent(in) :: grad
     type(ivd_t) :: r
     type(ivd_t) :: s(max(expr%depth, 1)), a, b
+    real(dp) :: k
     integer :: pc, t, op, pelse, pend
     t = 0
     pc = pc0
@@ -118,34 +151,37 @@ contains
       select case (op)
       case (OP_CONST)
         t = t + 1
-        s(t) = ivd_t(v=[expr%consts(expr%code(2, pc)), expr%consts(expr%code(2, pc))])
+        k = expr%consts(expr%code(2, pc))
+        s(t) = ivd_t(v=[k, k], c=[k, k])
       case (OP_X)
         t = t + 1
-        s(t) = ivd_t(v=box(:, 1), gx=[1.0_dp, 1.0_dp], smooth=grad)
+        s(t) = ivd_t(v=g%box(:, 1), gx=[1.0_dp, 1.0_dp], c=[g%m(1), g%m(1)], smooth=grad)
       case (OP_Y)
         t = t + 1
-        s(t) = ivd_t(v=box(:, 2), gy=[1.0_dp, 1.0_dp], smooth=grad)
+        s(t) = ivd_t(v=g%box(:, 2), gy=[1.0_dp, 1.0_dp], c=[g%m(2), g%m(2)], smooth=grad)
       case (OP_POWC)
         s(t) = ivd_powc(s(t), expr%consts(expr%code(2, pc)))
       case (OP_IF)
         pelse = expr%code(2, pc)
         pend = expr%code(2, pelse)
-        select case (truth(s(t)%v))
+        select case (truth(tri_range(s(t), g)))
         case (1)
-          s(t) = run_segment(expr, pc + 1, pelse - 1, box, grad)
+          s(t) = run_segment(expr, pc + 1, pelse - 1, g, grad)
         case (0)
-          s(t) = run_segment(expr, pelse + 1, pend - 1, box, grad)
+          s(t) = run_segment(expr, pelse + 1, pend - 1, g, grad)
         case default
-          a = run_segment(expr, pc + 1, pelse - 1, box, grad)
-          b = run_segment(expr, pelse + 1, pend - 1, box, grad)
+          a = run_segment(expr, pc + 1, pelse - 1, g, grad)
+          b = run_segment(expr, pelse + 1, pend - 1, g, grad)
           s(t) = ivd_t(v=[min(a%v(1), b%v(1)), max(a%v(2), b%v(2))], smooth=.false.)
         end select
         pc = pend
       case (OP_ELSE, OP_END)
+      case (OP_NOT)
+        s(t) = logical_result(1 - truth(tri_range(s(t), g)))
       case default
         if (op >= 40 .and. op < 60) then
           t = t - 1
-          s(t) = ivd_binary(op, s(t), s(t + 1))
+          s(t) = ivd_binary(op, s(t), s(t + 1), g)
         else
           s(t) = ivd_unary(op, s(t))
         end if
@@ -159,38 +195,41 @@ contains
 
   ! ------------------------------------------------------------------ interval dual numbers
 
-  !> A unary operation: the value's enclosure, and where a is smooth the gradient's by the
-  !> chain rule u'(A) dA.
+  !> The enclosure of u(a) for a unary operation u (not NOT) and an interval a.
+  pure function unary_value(op, a) result(r)
+    integer, intent(in) :: op
+    real(dp), intent(in) :: a(2)
+    real(dp) :: r(2)
+    select case (op)
+    case (OP_NEG); r = [-a(2), -a(1)]
+    case (OP_SQR); r = iv_sqr(a)
+    case (OP_SIN); r = iv_sin(a)
+    case (OP_COS); r = iv_sin(iv_add(a, [0.5_dp * pi, 0.5_dp * pi]))
+    case (OP_TAN); r = iv_tan(a)
+    case (OP_ASIN, OP_ACOS); r = iv_arc(op, a)
+    case (OP_ATAN, OP_EXP, OP_SINH, OP_TANH); r = iv_mono(op, a)
+    case (OP_LOG); r = iv_log(a, 1.0_dp)
+    case (OP_LOG10); r = iv_log(a, 1.0_dp / log(10.0_dp))
+    case (OP_SQRT); r = iv_sqrt(a)
+    case (OP_ABS); r = iv_abs(a)
+    case (OP_COSH); r = iv_cosh(a)
+    case default; r = entire_iv()
+    end select
+  end function unary_value
+
+  !> A unary operation (not NOT): the value's enclosure, and where a is smooth the value at
+  !> the centroid and the gradient's enclosure by the chain rule u'(A) dA.
   pure function ivd_unary(op, a) result(r)
     integer, intent(in) :: op
     type(ivd_t), intent(in) :: a
     type(ivd_t) :: r
     real(dp) :: d(2)
     r%smooth = a%smooth
-    select case (op)
-    case (OP_NEG)
-      r%v = [-a%v(2), -a%v(1)]
-      r%gx = [-a%gx(2), -a%gx(1)]
-      r%gy = [-a%gy(2), -a%gy(1)]
-      return
-    case (OP_NOT); r = logical_result(1 - truth(a%v)); return
-    case (OP_SQR); r%v = iv_sqr(a%v)
-    case (OP_SIN); r%v = iv_sin(a%v)
-    case (OP_COS); r%v = iv_sin(iv_add(a%v, [0.5_dp * pi, 0.5_dp * pi]))
-    case (OP_TAN); r%v = iv_tan(a%v)
-    case (OP_ASIN, OP_ACOS); r%v = iv_arc(op, a%v)
-    case (OP_ATAN, OP_EXP, OP_SINH, OP_TANH); r%v = iv_mono(op, a%v)
-    case (OP_LOG); r%v = iv_log(a%v, 1.0_dp)
-    case (OP_LOG10); r%v = iv_log(a%v, 1.0_dp / log(10.0_dp))
-    case (OP_SQRT); r%v = iv_sqrt(a%v)
-    case (OP_ABS); r%v = iv_abs(a%v)
-    case (OP_COSH); r%v = iv_cosh(a%v)
-    case default
-      r = ivd_t(v=entire_iv(), smooth=.false.)
-      return
-    end select
+    r%v = unary_value(op, a%v)
     if (.not. r%smooth) return                ! no gradient wanted (or none exists)
+    r%c = unary_value(op, a%c)
     select case (op)
+    case (OP_NEG); d = [-1.0_dp, -1.0_dp]
     case (OP_SQR); d = iv_scale(2.0_dp, a%v)
     case (OP_SIN); d = iv_sin(iv_add(a%v, [0.5_dp * pi, 0.5_dp * pi]))
     case (OP_COS); d = iv_scale(-1.0_dp, iv_sin(a%v))
@@ -210,6 +249,9 @@ contains
     case (OP_SINH); d = iv_cosh(a%v)
     case (OP_COSH); d = iv_mono(OP_SINH, a%v)
     case (OP_TANH); d = iv_sub([1.0_dp, 1.0_dp], iv_sqr(r%v))
+    case default
+      r%smooth = .false.
+      return
     end select
     r%gx = iv_mul(d, a%gx)
     r%gy = iv_mul(d, a%gy)
@@ -224,36 +266,23 @@ contains
     r%smooth = a%smooth
     r%v = iv_powc(a%v, c)
     if (.not. r%smooth) return
+    r%c = iv_powc(a%c, c)
     d = iv_scale(c, iv_powc(a%v, c - 1.0_dp))
     if (c == 0.0_dp) d = [0.0_dp, 0.0_dp]
     r%gx = iv_mul(d, a%gx)
     r%gy = iv_mul(d, a%gy)
   end function ivd_powc
 
-  !> A binary operation a op b.
-  pure function ivd_binary(op, a, b) result(r)
+  !> A binary operation a op b; comparisons, and, or decided on the triangle of g.
+  pure function ivd_binary(op, a, b, g) result(r)
     integer, intent(in) :: op
     type(ivd_t), intent(in) :: a, b
+    type(geometry_t), intent(in) :: g
     type(ivd_t) :: r
     r%smooth = a%smooth .and. b%smooth
     select case (op)
-    case (OP_ADD)
-      r%v = iv_add(a%v, b%v)
-      if (r%smooth) r%gx = iv_add(a%gx, b%gx)
-      if (r%smooth) r%gy = iv_add(a%gy, b%gy)
-    case (OP_SUB)
-      r%v = iv_sub(a%v, b%v)
-      if (r%smooth) r%gx = iv_sub(a%gx, b%gx)
-      if (r%smooth) r%gy = iv_sub(a%gy, b%gy)
-    case (OP_MUL)
-      r%v = iv_mul(a%v, b%v)
-      if (r%smooth) r%gx = iv_add(iv_mul(a%gx, b%v), iv_mul(a%v, b%gx))
-      if (r%smooth) r%gy = iv_add(iv_mul(a%gy, b%v), iv_mul(a%v, b%gy))
-    case (OP_DIV)
-      r%v = iv_div(a%v, b%v)
-      ! (a/b)' = (a' - (a/b) b') / b
-      if (r%smooth) r%gx = iv_div(iv_sub(a%gx, iv_mul(r%v, b%gx)), b%v)
-      if (r%smooth) r%gy = iv_div(iv_sub(a%gy, iv_mul(r%v, b%gy)), b%v)
+    case (OP_ADD, OP_SUB, OP_MUL, OP_DIV)
+      r = ivd_arith(op, a, b)
     case (OP_POW)
       r = ivd_pow(a, b)
     case (OP_ATAN2)
@@ -264,7 +293,7 @@ contains
       else if (b%v(2) < a%v(1)) then
         r = b
       else
-        r = hull(a, b, [min(a%v(1), b%v(1)), min(a%v(2), b%v(2))])
+        r = hull(a, b, [min(a%v(1), b%v(1)), min(a%v(2), b%v(2))], [min(a%c(1), b%c(1)), min(a%c(2), b%c(2))])
       end if
     case (OP_MAX)
       if (a%v(1) >= b%v(2)) then
@@ -272,13 +301,55 @@ contains
       else if (b%v(1) > a%v(2)) then
         r = b
       else
-        r = hull(a, b, [max(a%v(1), b%v(1)), max(a%v(2), b%v(2))])
+        r = hull(a, b, [max(a%v(1), b%v(1)), max(a%v(2), b%v(2))], [max(a%c(1), b%c(1)), max(a%c(2), b%c(2))])
       end if
+    case (OP_AND, OP_OR)
+      r = logical_result(compare(op, tri_range(a, g), tri_range(b, g)))
     case default
-      ! comparisons, and, or: 0 or 1, a jump where undecided
-      r = logical_result(compare(op, a%v, b%v))
+      ! comparisons: the sign of a - b on the triangle (a jump where undecided)
+      r = logical_result(compare(op, tri_range(ivd_arith(OP_SUB, a, b), g), [0.0_dp, 0.0_dp]))
     end select
   end function ivd_binary
+
+  !> a + b, a - b, a * b, a / b: the values and, where both are smooth, the centroid values
+  !> and the gradients.
+  pure function ivd_arith(op, a, b) result(r)
+    integer, intent(in) :: op
+    type(ivd_t), intent(in) :: a, b
+    type(ivd_t) :: r
+    r%smooth = a%smooth .and. b%smooth
+    r%v = arith_value(op, a%v, b%v)
+    if (.not. r%smooth) return
+    r%c = arith_value(op, a%c, b%c)
+    select case (op)
+    case (OP_ADD)
+      r%gx = iv_add(a%gx, b%gx)
+      r%gy = iv_add(a%gy, b%gy)
+    case (OP_SUB)
+      r%gx = iv_sub(a%gx, b%gx)
+      r%gy = iv_sub(a%gy, b%gy)
+    case (OP_MUL)
+      r%gx = iv_add(iv_mul(a%gx, b%v), iv_mul(a%v, b%gx))
+      r%gy = iv_add(iv_mul(a%gy, b%v), iv_mul(a%v, b%gy))
+    case (OP_DIV)
+      ! (a/b)' = (a' - (a/b) b') / b
+      r%gx = iv_div(iv_sub(a%gx, iv_mul(r%v, b%gx)), b%v)
+      r%gy = iv_div(iv_sub(a%gy, iv_mul(r%v, b%gy)), b%v)
+    end select
+  end function ivd_arith
+
+  !> The enclosure of a op b for op = +, -, *, / and intervals a, b.
+  pure function arith_value(op, a, b) result(r)
+    integer, intent(in) :: op
+    real(dp), intent(in) :: a(2), b(2)
+    real(dp) :: r(2)
+    select case (op)
+    case (OP_ADD); r = iv_add(a, b)
+    case (OP_SUB); r = iv_sub(a, b)
+    case (OP_MUL); r = iv_mul(a, b)
+    case default; r = iv_div(a, b)
+    end select
+  end function arith_value
 
   !> a**b with both arguments intervals: exp(b log a) for a > 0; an integral constant b
   !> (a degenerate interval) as OP_POWC; otherwise no claim.
@@ -298,6 +369,7 @@ contains
     r%v = iv_mono(OP_EXP, iv_mul(b%v, la))
     r%smooth = a%smooth .and. b%smooth
     if (.not. r%smooth) return
+    r%c = iv_mono(OP_EXP, iv_mul(b%c, iv_log(a%c, 1.0_dp)))
     ! (a^b)' = a^b (b' log a + b a' / a)
     d1 = iv_div(b%v, a%v)
     r%gx = iv_mul(r%v, iv_add(iv_mul(b%gx, la), iv_mul(d1, a%gx)))
@@ -305,13 +377,14 @@ contains
   end function ivd_pow
 
   !> min or max of a and b where neither is below the other on the whole box: the value
-  !> v, the gradients' hull (the generalised gradient of a min or max of Lipschitz functions
-  !> lies in the convex hull of theirs).
-  pure function hull(a, b, v) result(r)
+  !> v, the centroid value c, the gradients' hull (the generalised gradient of a min or max
+  !> of Lipschitz functions lies in the convex hull of theirs).
+  pure function hull(a, b, v, c) result(r)
     type(ivd_t), intent(in) :: a, b
-    real(dp), intent(in) :: v(2)
+    real(dp), intent(in) :: v(2), c(2)
     type(ivd_t) :: r
     r%v = v
+    r%c = c
     r%gx = [min(a%gx(1), b%gx(1)), max(a%gx(2), b%gx(2))]
     r%gy = [min(a%gy(1), b%gy(1)), max(a%gy(2), b%gy(2))]
     r%smooth = a%smooth .and. b%smooth
@@ -322,12 +395,12 @@ contains
   pure function ivd_atan2(a, b) result(r)
     type(ivd_t), intent(in) :: a, b
     type(ivd_t) :: r
-    real(dp) :: c(4), n2(2)
+    real(dp) :: n2(2)
     if (b%v(1) > 0.0_dp .or. a%v(1) > 0.0_dp .or. a%v(2) < 0.0_dp) then
-      c = [atan2(a%v(1), b%v(1)), atan2(a%v(1), b%v(2)), atan2(a%v(2), b%v(1)), atan2(a%v(2), b%v(2))]
-      r%v = widen([minval(c), maxval(c)])
+      r%v = atan2_value(a%v, b%v)
       r%smooth = a%smooth .and. b%smooth
       if (.not. r%smooth) return
+      r%c = atan2_value(a%c, b%c)
       ! d atan2(a, b) = (b da - a db) / (a^2 + b^2)
       n2 = iv_add(iv_sqr(a%v), iv_sqr(b%v))
       r%gx = iv_div(iv_sub(iv_mul(b%v, a%gx), iv_mul(a%v, b%gx)), n2)
@@ -337,14 +410,22 @@ contains
     end if
   end function ivd_atan2
 
+  !> atan2 on a box that avoids the origin and the cut: the hull of its corner values.
+  pure function atan2_value(a, b) result(r)
+    real(dp), intent(in) :: a(2), b(2)
+    real(dp) :: r(2), c(4)
+    c = [atan2(a(1), b(1)), atan2(a(1), b(2)), atan2(a(2), b(1)), atan2(a(2), b(2))]
+    r = widen([minval(c), maxval(c)])
+  end function atan2_value
+
   !> The result of a comparison or logical operation decided as 0 or 1 (tv = 0, 1), or
-  !> undecided (tv = -1: the interval [0, 1], a jump on the box).
+  !> undecided (tv = -1: the interval [0, 1], a jump on the triangle).
   pure function logical_result(tv) result(r)
     integer, intent(in) :: tv
     type(ivd_t) :: r
     select case (tv)
     case (0, 1)
-      r = ivd_t(v=[real(tv, dp), real(tv, dp)])
+      r = ivd_t(v=[real(tv, dp), real(tv, dp)], c=[real(tv, dp), real(tv, dp)])
     case default
       r = ivd_t(v=[0.0_dp, 1.0_dp], smooth=.false.)
     end select

@@ -22,7 +22,7 @@ module dualsig_expression_fields
   contains
     procedure :: value => expression_field_value
     procedure :: values_at => expression_field_values
-    procedure :: range_on_box => expression_field_range
+    procedure :: range_on_triangle => expression_field_range
   end type expression_field_t
 
   !> The gradient of a compiled expression, by forward-mode automatic differentiation:
@@ -64,15 +64,15 @@ contains
     call expression_eval(self%expr, x, y, v)
   end subroutine expression_field_values
 
-  !> An enclosure of the values on a box by interval arithmetic (expression_range); the whole
-  !> real line where none is found.
-  subroutine expression_field_range(self, box, lo, hi, known, enough)
+  !> An enclosure of the values on a triangle by interval arithmetic (expression_range); the
+  !> whole real line where none is found.
+  subroutine expression_field_range(self, tri, lo, hi, known, enough)
     class(expression_field_t), intent(in) :: self
-    real(dp), intent(in) :: box(2, 2)
+    real(dp), intent(in) :: tri(2, 3)
     real(dp), intent(out) :: lo, hi
     logical, intent(out) :: known
     real(dp), intent(in), optional :: enough(2)
-    call expression_range(self%expr, box, lo, hi, enough)
+    call expression_range(self%expr, tri, lo, hi, enough)
     known = .true.
   end subroutine expression_field_range
 

@@ -33,14 +33,14 @@ module dualsig_fields
 
   !> A scalar field of position: f%value(x, y); f%values_at(x, y, v) at many points at once
   !> (v(i) = f%value(x(i), y(i)); a field whose evaluation has a per-call overhead, such as
-  !> a compiled expression, overrides it); f%range_on_box(box, lo, hi, known[, enough]):
-  !> lo <= f <= hi on the box when known (a field that can enclose its values, such as a compiled
+  !> a compiled expression, overrides it); f%range_on_triangle(tri, lo, hi, known[, enough]):
+  !> lo <= f <= hi on the triangle when known (a field that can enclose its values, such as a compiled
   !> expression by interval arithmetic, overrides the default known = .false.).
   type, abstract :: field_t
   contains
     procedure(field_value), deferred :: value
     procedure :: values_at => field_values
-    procedure :: range_on_box => field_range_on_box
+    procedure :: range_on_triangle => field_range_on_triangle
   end type field_t
 
   !> A vector field of position: g%value(x, y) of size 2.
@@ -91,17 +91,17 @@ contains
     end do
   end subroutine field_values
 
-  !> No enclosure (the default of field_t%range_on_box): known = .false.
-  subroutine field_range_on_box(self, box, lo, hi, known, enough)
+  !> No enclosure (the default of field_t%range_on_triangle): known = .false.
+  subroutine field_range_on_triangle(self, tri, lo, hi, known, enough)
     class(field_t), intent(in) :: self
-    real(dp), intent(in) :: box(2, 2)        !! box(:, 1) = [x_lo, x_hi], box(:, 2) = [y_lo, y_hi]
+    real(dp), intent(in) :: tri(2, 3)        !! the vertices
     real(dp), intent(out) :: lo, hi
     logical, intent(out) :: known
     real(dp), intent(in), optional :: enough(2)  !! an enclosure within this suffices (no sharper one needed)
     lo = -huge(1.0_dp)
     hi = huge(1.0_dp)
     known = .false.
-  end subroutine field_range_on_box
+  end subroutine field_range_on_triangle
 
   !> The field of the plain function fn.
   function function_field(fn) result(field)

@@ -67,14 +67,13 @@ module dualsig_load_data
   !> triangle needs far fewer), is not certified.
   integer(i8), parameter :: load_mesh_pieces_fixed = 8_i8 * load_max_pieces, load_mesh_pieces_per_tri = 64_i8
   !> range_consistent: an enclosure of f on a piece may exceed the range of f at the piece's
-  !> points by guard_spread times that range (the bounding box is up to twice the piece, and
-  !> the enclosure of a smooth f is of second order: a few times the range at most) plus
+  !> points by guard_spread times that range (the enclosure of a smooth f is of second order
+  !> on the triangle, the natural one on its bounding box: a few times the range at most) plus
   !> guard_rel_floor times the scale of |f| (rounding); beyond, the piece is subdivided.
   real(dp), parameter :: guard_spread = 4.0_dp, guard_rel_floor = 1.0e-9_dp
-  !> range_consistent encloses f on the piece's bounding box less a band of this fraction of
-  !> its width along each side (f's value on a side, a jump along a mesh line, is a set of
-  !> measure zero for the integrals).
-  real(dp), parameter :: guard_box_shrink = 1.0e-9_dp
+  !> range_consistent encloses f on the piece shrunk about its centroid by this fraction (f's
+  !> value on a side, a jump along a mesh line, is a set of measure zero for the integrals).
+  real(dp), parameter :: guard_shrink = 1.0e-9_dp
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
@@ -353,8 +352,8 @@ contains
   end subroutine extend_range
 
   !> Whether the values of f on the piece xy (in coordinates about centroid) may be those its
-  !> cubature points show, prange = [pmin, pmax]: .false. when f's enclosure on the piece's bounding
-  !> box (field_t%range_on_box, where the field can give one) reaches beyond them by more
+  !> cubature points show, prange = [pmin, pmax]: .false. when f's enclosure on the piece
+  !> (field_t%range_on_triangle, where the field can give one) reaches beyond them by more
   !> than guard_spread times their spread plus guard_rel_floor times the scale of |f|
   !> (abs_density): f then has a feature between the points (a strip, a spike) that the
   !> cubature's agreement cannot see; nguarded counts these.  A field without enclosures,
@@ -363,23 +362,22 @@ contains
     class(field_t), intent(in) :: f
     real(dp), intent(in) :: centroid(2), xy(2, 3), prange(2), abs_density
     integer, intent(inout) :: nguarded
-    real(dp) :: box(2, 2), lo, hi, margin, pmin, pmax
+    real(dp) :: tri(2, 3), pc(2), lo, hi, margin, pmin, pmax
     logical :: known
+    integer :: k
     ok = .true.
     pmin = prange(1)
     pmax = prange(2)
     if (.not. (ieee_is_finite(pmin) .and. ieee_is_finite(pmax))) return
-    ! the box of the points f is evaluated at (centroid + p rounds monotonically in p), less
-    ! a band of guard_box_shrink of its width along its sides: a jump of f along a side (a
-    ! mesh line, a break) is a set of measure zero there, and no feature of the integrals
-    box(:, 1) = [minval(xy(1, :)), maxval(xy(1, :))]
-    box(:, 2) = [minval(xy(2, :)), maxval(xy(2, :))]
-    box(1, :) = box(1, :) + guard_box_shrink * (box(2, :) - box(1, :))
-    box(2, :) = box(2, :) - guard_box_shrink * (box(2, :) - box(1, :))
-    box(:, 1) = centroid(1) + box(:, 1)
-    box(:, 2) = centroid(2) + box(:, 2)
+    ! the piece shrunk about its centroid by guard_shrink: a jump of f along a side (a mesh
+    ! line, a break) is a set of measure zero, no feature of the integrals; then in absolute
+    ! coordinates, where f is evaluated (centroid + p rounds monotonically in p)
+    pc = sum(xy, dim=2) / 3.0_dp
+    do k = 1, 3
+      tri(:, k) = centroid + (pc + (1.0_dp - guard_shrink) * (xy(:, k) - pc))
+    end do
     margin = guard_spread * (pmax - pmin) + guard_rel_floor * max(abs_density, abs(pmin), abs(pmax))
-    call f%range_on_box(box, lo, hi, known, enough=[pmin - margin, pmax + margin])
+    call f%range_on_triangle(tri, lo, hi, known, enough=[pmin - margin, pmax + margin])
     if (.not. known) return
     ok = lo >= pmin - margin .and. hi <= pmax + margin
     if (.not. ok) nguarded = nguarded + 1
