@@ -23,7 +23,12 @@ module dualsig_expression_fields
     procedure :: value => expression_field_value
     procedure :: values_at => expression_field_values
     procedure :: range_on_triangle => expression_field_range
+    procedure :: evaluation_cost => expression_field_cost
   end type expression_field_t
+
+  !> Instructions of the expression machine that one unit of field_t%evaluation_cost stands
+  !> for (a formula such as -2*pi**2*sin(pi*x)*sin(pi*y) takes 12).
+  real(dp), parameter :: cost_unit_instructions = 64.0_dp
 
   !> The gradient of a compiled expression, by forward-mode automatic differentiation:
   !> value(x, y) = (d/dx, d/dy) of expr at (x, y).
@@ -75,6 +80,13 @@ contains
     call expression_range(self%expr, tri, lo, hi, enough)
     known = .true.
   end subroutine expression_field_range
+
+  !> The cost of one evaluation: the number of instructions over cost_unit_instructions,
+  !> at least 1.
+  pure real(dp) function expression_field_cost(self) result(cost)
+    class(expression_field_t), intent(in) :: self
+    cost = max(1.0_dp, real(self%expr%n, dp) / cost_unit_instructions)
+  end function expression_field_cost
 
   function expression_gradient_value(self, x, y) result(g)
     class(expression_gradient_t), intent(in) :: self

@@ -35,12 +35,16 @@ module dualsig_fields
   !> (v(i) = f%value(x(i), y(i)); a field whose evaluation has a per-call overhead, such as
   !> a compiled expression, overrides it); f%range_on_triangle(tri, lo, hi, known[, enough]):
   !> lo <= f <= hi on the triangle when known (a field that can enclose its values, such as a compiled
-  !> expression by interval arithmetic, overrides the default known = .false.).
+  !> expression by interval arithmetic, overrides the default known = .false.);
+  !> f%evaluation_cost(): the cost of one evaluation in units of a short formula's (1 by
+  !> default; a compiled expression gives its length over 64 instructions),
+  !> which the cubature divides its budget of pieces by.
   type, abstract :: field_t
   contains
     procedure(field_value), deferred :: value
     procedure :: values_at => field_values
     procedure :: range_on_triangle => field_range_on_triangle
+    procedure :: evaluation_cost => field_evaluation_cost
   end type field_t
 
   !> A vector field of position: g%value(x, y) of size 2.
@@ -102,6 +106,12 @@ contains
     hi = huge(1.0_dp)
     known = .false.
   end subroutine field_range_on_triangle
+
+  !> One unit (the default of field_t%evaluation_cost: a plain function's cost is not known).
+  pure real(dp) function field_evaluation_cost(self) result(cost)
+    class(field_t), intent(in) :: self
+    cost = 1.0_dp
+  end function field_evaluation_cost
 
   !> The field of the plain function fn.
   function function_field(fn) result(field)

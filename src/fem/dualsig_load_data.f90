@@ -66,6 +66,14 @@ module dualsig_load_data
   !> are not converged, and the level, which has unconverged triangles anyway (a converging
   !> triangle needs far fewer), is not certified.
   integer(i8), parameter :: load_mesh_pieces_fixed = 8_i8 * load_max_pieces, load_mesh_pieces_per_tri = 64_i8
+  !> The budgets above are for an f of unit cost (field_t%evaluation_cost: a short formula or
+  !> a plain function); an f that costs c units gets them divided by c, down to these floors
+  !> (per triangle and pass; per triangle in the mesh's budget), so that the work of an f the
+  !> cubature cannot resolve is bounded whatever its length (the adversarial review's 3.7k-
+  !> character expression on 8 triangles: 51 s at the full budget).  An f that the rule
+  !> resolves needs a few pieces per triangle, within the floors.
+  integer, parameter :: load_min_pieces = 4**4
+  integer(i8), parameter :: load_min_pieces_per_tri = 16_i8
   !> range_consistent: an enclosure of f on a piece may exceed the range of f at the piece's
   !> points by guard_spread times that range (the enclosure of a smooth f is of second order
   !> on the triangle, the natural one on its bounding box: a few times the range at most) plus
@@ -123,7 +131,7 @@ contains
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     real(dp) :: prange(2)                         ! the range of f at the points of the current piece
     logical :: ok1, ok2, keep, top_ok
-    integer :: t, k, budget
+    integer :: t, k, budget, tri_budget
     integer(i8) :: mesh_budget
     call load_data_allocate(data, mesh%ntri, st)
     if (.not. is_ok(st)) return
@@ -136,7 +144,7 @@ contains
     call global_scales(abs_density, sq_density)
     data%scales = [abs_density, sq_density]
     keep = may_keep(data, prev, origin)
-    mesh_budget = load_mesh_pieces_fixed + load_mesh_pieces_per_tri * mesh%ntri
+    call piece_budgets(f%evaluation_cost(), mesh%ntri, tri_budget, mesh_budget)
     do t = 1, mesh%ntri
       if (keep) then                              ! a triangle of prev's mesh: its data kept
         if (origin(t) > 0) call keep_triangle(prev, origin(t), data, t)
@@ -150,7 +158,7 @@ contains
       ! pieces in coordinates about the centroid: x - x_T exact for a small triangle far out
       local = xy - spread(centroid, 2, 3)
       br_local = br - centroid(1)
-      budget = load_max_pieces
+      budget = tri_budget
       call adapt(local, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
       if (.not. all(ieee_is_finite(s))) then
         call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
@@ -161,7 +169,7 @@ contains
       data%moment(:, t) = s(2:3)
       data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
       slope = data%slope(:, t)
-      budget = load_max_pieces
+      budget = tri_budget
       call adapt(local, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
       data%osc(t) = sqrt(max(s(1), 0.0_dp))
       data%converged(t) = ok1 .and. ok2
@@ -309,6 +317,21 @@ contains
     end subroutine grow_top
 
   end subroutine load_data_build
+
+  !> The budgets of subdivided pieces for an f whose evaluation costs cost units: per
+  !> triangle and pass, and for the whole mesh of ntri triangles (load_max_pieces and
+  !> load_mesh_pieces_* divided by the cost, down to load_min_pieces*).
+  pure subroutine piece_budgets(cost, ntri, tri_budget, mesh_budget)
+    real(dp), intent(in) :: cost
+    integer, intent(in) :: ntri
+    integer, intent(out) :: tri_budget
+    integer(i8), intent(out) :: mesh_budget
+    real(dp) :: c
+    c = max(1.0_dp, cost)
+    tri_budget = max(load_min_pieces, int(load_max_pieces / c))
+    mesh_budget = int(load_mesh_pieces_fixed / c, i8) + &
+      max(load_min_pieces_per_tri, int(load_mesh_pieces_per_tri / c, i8)) * ntri
+  end subroutine piece_budgets
 
   !> v(1:tp%n) = f at the points of tp, given in coordinates about centroid, all at once
   !> (f%values_at); xq, yq are work arrays, grown when needed; evaluations counts them.
