@@ -193,8 +193,9 @@ module dualsig_analysis
   type :: analysis_problem_t
     integer :: kind = PROBLEM_P2                     !! PROBLEM_P1 or PROBLEM_P2
     type(mesh_t) :: mesh                             !! coarse mesh, topology built, counter-clockwise
-    integer, allocatable :: gamma_u(:)               !! boundary markers of Gamma_u (0 = unused slot)
-    integer, allocatable :: gamma_a(:)               !! boundary markers of Gamma_a (0 = unused slot)
+    integer, allocatable :: gamma_u(:)               !! boundary markers of Gamma_u (0 = unused slot; unallocated: none)
+    !> boundary markers of Gamma_a (0 = unused slot; unallocated: none for P2, all of Gamma for P1)
+    integer, allocatable :: gamma_a(:)
     class(field_t), allocatable :: f                 !! the load
     !> abscissae x = c where f has a kink (integrals are split there); left unallocated the
     !> integrals are not split at all
@@ -283,7 +284,8 @@ module dualsig_analysis
     logical :: dual_limit = .false.         !! the dual solver stopped at its iteration limit
     integer :: dual_iters = 0
     real(dp) :: dual_seconds = 0.0_dp
-    real(dp) :: est = 0.0_dp                !! E of (6.13) / (6.26)
+    real(dp) :: est = 0.0_dp                !! the bound of the squared energy error: E of (6.13) / (6.26), P1 hdiv: min(E, est_pw)
+    real(dp) :: est_hypercircle = 0.0_dp    !! P1: E(q, u~) of (6.13) = F(q) - energy_lo, also the bound (6.18); P2: est
     real(dp) :: energy_lo = 0.0_dp, energy_hi = 0.0_dp
     real(dp), allocatable :: est_elem(:)    !! element contributions to est (sum = est)
     logical :: certified = .false.          !! est and energy_hi are guaranteed bounds
@@ -462,6 +464,16 @@ contains
       an%u_start = u_start
     end if
     an%problem = problem
+    ! markers left unallocated: Gamma_u none; Gamma_a none for P2, every marker of the mesh for
+    ! P1 (its Signorini conditions hold on all of Gamma)
+    if (.not. allocated(an%problem%gamma_u)) allocate (an%problem%gamma_u(0))   ! small: empty
+    if (.not. allocated(an%problem%gamma_a)) then
+      if (problem%kind == PROBLEM_P1 .and. allocated(an%problem%mesh%bedge_marker)) then
+        an%problem%gamma_a = distinct_markers(an%problem%mesh%bedge_marker)
+      else
+        allocate (an%problem%gamma_a(0))                                       ! small: empty
+      end if
+    end if
     an%settings = settings
     an%dual_method = method
     ! the levels' mesh: the copy of the coarse mesh moved out of an%problem (one copy, not two)
@@ -1323,6 +1335,7 @@ contains
     call p1_bounds_level(an, q, load, hdiv, res, bounds, st)
     if (.not. is_ok(st)) return
     res%est = bounds%est
+    res%est_hypercircle = bounds%est_hypercircle
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
     call move_alloc(bounds%est_elem, res%est_elem)
@@ -1546,9 +1559,25 @@ contains
       end if
     end associate
     res%est = bounds%est
+    res%est_hypercircle = bounds%est
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
     call move_alloc(bounds%est_elem, res%est_elem)
     if (an%settings%adapt%enabled .and. allocated(load%mean)) call load_data_move(load, an%load_keep)
   end subroutine dual_level_p2
+
+  !> The distinct values of marker, in the order of their first occurrence.
+  pure function distinct_markers(marker) result(list)
+    integer, intent(in) :: marker(:)
+    integer, allocatable :: list(:)
+    integer :: j, n
+    integer :: seen(size(marker))
+    n = 0
+    do j = 1, size(marker)
+      if (any(seen(1:n) == marker(j))) cycle
+      n = n + 1
+      seen(n) = marker(j)
+    end do
+    list = seen(1:n)
+  end function distinct_markers
 end module dualsig_analysis

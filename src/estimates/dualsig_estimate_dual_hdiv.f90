@@ -8,6 +8,20 @@
 !>   (6.14)  2 (f, u~) - ||u~||_1^2 <= ||u||_1^2 = (f, u) <= F(q) = ||q||^2 + ||f + div q||^2.
 !>
 !> The proofs use only q in Q = H(div) with q.nu|_Gamma >= 0, which RT1 fields satisfy.
+!>
+!> A sharper bound from the same q (its proof in doc/theory.md, "A bound robust in the size
+!> of the domain").  With e = u - u~, the variational inequality at v = u~ and Green's
+!> formula for q give ||e||_1^2 <= (q - grad u~, grad e) + (f + div q - u~, e) + c,
+!> c = int_Gamma (q.nu) u~ ds.  Split f + div q - u~ = (f - Pi_1 f) + r_T on each triangle,
+!> r_T = Pi_1 f + div q - u~ linear; f - Pi_1 f has mean zero on T, so by Payne-Weinberger
+!> (f - Pi_1 f, e)_T <= (h_T/pi) osc_T ||grad e||_T.  Cauchy-Schwarz then gives
+!> ||e||_1^2 <= S ||e||_1 + c with S^2 = sum_T (||q - grad u~||_T + (h_T/pi) osc_T)^2
+!> + sum_T ||r_T||^2, so
+!>   ||e||_1^2 <= est_pw = ((S + sqrt(S^2 + 4 c)) / 2)^2,
+!> and est = min(E, est_pw).  On a domain of small diameter the data term ||f - Pi_1 f||^2
+!> of E, unweighted, dominates it by orders of magnitude; est_pw weights it by h_T/pi, as
+!> the bound of P2 does.  Then also ||u||_1^2 <= (||u~||_1 + sqrt(est))^2, and energy_hi is
+!> the smaller of that and F(q).
 !> E is summed from its non-negative element and edge terms (Remark 6.1).  Exactness:
 !> - ||q - grad u~||^2 and ||q||^2 are integrals of polynomials of degree 4, integrated
 !>   exactly (Radon's degree-5 rule);
@@ -18,7 +32,7 @@
 !>   is taken >= 0 at the edge ends (it is, for a feasible q), which can only increase E.
 !> Element contributions (edge terms added to the triangle of the edge) are returned.
 module dualsig_estimate_dual_hdiv
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
@@ -36,6 +50,7 @@ module dualsig_estimate_dual_hdiv
 
   !> Degree of the rule for the linear-times-linear integrands of dual_hdiv_bounds_load.
   integer, parameter :: linear_product_degree = 2
+  real(dp), parameter :: pi = 3.14159265358979323846_dp
 
 contains
 
@@ -58,10 +73,11 @@ contains
     type(tri_points_t) :: tp
     type(rt1_geometry_t) :: g
     real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), dv(3), ue(3), gu(2), qq(2)
-    real(dp) :: e1, e2, uq, dq, pf, fu, uu, hi, grad(2, 3), area, bary(3), centroid(2)
+    real(dp) :: e1, e2, r2, uq, dq, pf, fu, uu, hi, grad(2, 3), area, bary(3), centroid(2)
+    real(dp), allocatable :: pw_elem(:), b_elem(:)   ! S^2's terms, the boundary terms 2 (q.nu, u~), per triangle
     integer :: t, k
-    allocate (bnd%est_elem(mesh%ntri), stat=ist)
-    if (alloc_failed(ist, st, 'the element indicators', mesh%ntri, BYTES_REAL)) return
+    allocate (bnd%est_elem(mesh%ntri), pw_elem(mesh%ntri), b_elem(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the element indicators', 3_i8 * mesh%ntri, BYTES_REAL)) return
     prule = tri_rule(rt1_matrix_degree)
     lrule = tri_rule(linear_product_degree)
     fu = 0.0_dp
@@ -88,44 +104,67 @@ contains
         dv(k) = dot_product(dpsi, c)
       end do
       ! Pi_1 f + div q - u~ and Pi_1 f + div q: linear, their squares exact with a degree-2 rule
-      e2 = load%osc(t)**2
+      r2 = 0.0_dp
       hi = hi + load%osc(t)**2
       call tri_points_set(g%xy, lrule, tp, [real(dp) ::])
       do k = 1, tp%n
         pf = load%mean(t) + dot_product(load%slope(:, t), tp%p(:, k) - centroid)
         uq = dot_product(tp%bary(:, k), ue)
         dq = dot_product(tp%bary(:, k), dv)
-        e2 = e2 + tp%w(k) * (pf + dq - uq)**2
+        r2 = r2 + tp%w(k) * (pf + dq - uq)**2
         hi = hi + tp%w(k) * (pf + dq)**2
       end do
+      e2 = load%osc(t)**2 + r2
       fu = fu + load%mean(t) * area * sum(ue) / 3.0_dp + dot_product(gu, load%moment(:, t))
       uu = uu + area * (sum(gu**2) + (sum(ue**2) + sum(ue)**2) / 12.0_dp)
       bnd%est_elem(t) = e1 + e2
+      pw_elem(t) = (sqrt(e1) + load%diameter(t) / pi * load%osc(t))**2 + r2
     end do
-    call boundary_term(mesh, u, x, bnd)
-    bnd%est = sum(bnd%est_elem)
-    bnd%energy_hi = hi
+    call boundary_term(mesh, u, x, b_elem, bnd%boundary_term)
+    bnd%est_elem = bnd%est_elem + b_elem
+    bnd%est_hypercircle = sum(bnd%est_elem)
     bnd%energy_lo = 2.0_dp * fu - uu
+    call take_sharper(bnd, pw_elem, b_elem, uu, hi)
   end subroutine dual_hdiv_bounds_load
 
+  !> est = min(E, est_pw) with est_pw = ((S + sqrt(S^2 + 4 c)) / 2)^2 (the module's header):
+  !> S^2 = sum(pw_elem), c = sum(b_elem) / 2; the indicators those of the bound taken, scaled
+  !> to sum to est; energy_hi = min(F(q), (||u~||_1 + sqrt(est))^2), uu = ||u~||_1^2, hi = F(q).
+  pure subroutine take_sharper(bnd, pw_elem, b_elem, uu, hi)
+    type(dual_p1_bounds_t), intent(inout) :: bnd
+    real(dp), intent(in) :: pw_elem(:), b_elem(:), uu, hi
+    real(dp) :: s2, c, est_pw, total
+    s2 = sum(pw_elem)
+    c = 0.5_dp * sum(b_elem)
+    est_pw = 0.25_dp * (sqrt(s2) + sqrt(s2 + 4.0_dp * c))**2
+    bnd%est = bnd%est_hypercircle
+    if (est_pw < bnd%est_hypercircle) then
+      bnd%est = est_pw
+      total = s2 + 2.0_dp * c
+      if (total > 0.0_dp) bnd%est_elem = (pw_elem + b_elem) * (est_pw / total)
+    end if
+    bnd%energy_hi = min(hi, (sqrt(max(uu, 0.0_dp)) + sqrt(bnd%est))**2)
+  end subroutine take_sharper
+
   !> 2 int_Gamma (q.nu) u~ ds, exactly (both factors linear on an edge):
-  !> 2 L/6 (2 a1 b1 + a1 b2 + a2 b1 + 2 a2 b2), added to the triangles of the edges.
-  subroutine boundary_term(mesh, u, x, bnd)
+  !> 2 L/6 (2 a1 b1 + a1 b2 + a2 b1 + 2 a2 b2), per triangle of the edges (b_elem) and in all.
+  subroutine boundary_term(mesh, u, x, b_elem, total)
     type(mesh_t), intent(in) :: mesh
     real(dp), intent(in) :: u(:), x(:)
-    type(dual_p1_bounds_t), intent(inout) :: bnd
+    real(dp), intent(out) :: b_elem(:), total
     real(dp) :: qn(2), ub(2), e1
     integer :: j, t, dofs(2)
-    bnd%boundary_term = 0.0_dp
+    b_elem = 0.0_dp
+    total = 0.0_dp
     do j = 1, mesh%nbedge
       call hdiv_bedge_dofs(mesh, j, dofs)
       qn = max(0.0_dp, x(dofs))
       ub = u(mesh%bedge_nodes(:, j))
       e1 = 2.0_dp * mesh%bedge_length(j) / 6.0_dp * (2.0_dp * qn(1) * ub(1) + qn(1) * ub(2) + qn(2) * ub(1) &
                                                      + 2.0_dp * qn(2) * ub(2))
-      bnd%boundary_term = bnd%boundary_term + e1
+      total = total + e1
       t = mesh%bedge_tri(j)
-      bnd%est_elem(t) = bnd%est_elem(t) + e1
+      b_elem(t) = b_elem(t) + e1
     end do
   end subroutine boundary_term
 

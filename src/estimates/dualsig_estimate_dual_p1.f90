@@ -32,9 +32,10 @@ module dualsig_estimate_dual_p1
   integer, parameter :: polynomial_degree = 2
 
   type :: dual_p1_bounds_t
-    real(dp) :: est = 0.0_dp             !! E(q, u~) of (6.13)
+    real(dp) :: est = 0.0_dp             !! a bound of ||u - u~||_1^2: E(q, u~) of (6.13), or a sharper one (hdiv)
+    real(dp) :: est_hypercircle = 0.0_dp !! E(q, u~) of (6.13) = F(q) - (2 (f, u~) - ||u~||_1^2), bounds (6.18) too
     real(dp) :: energy_lo = 0.0_dp       !! 2 (f, u~) - ||u~||_1^2
-    real(dp) :: energy_hi = 0.0_dp       !! F(q)
+    real(dp) :: energy_hi = 0.0_dp       !! F(q), or a sharper bound (hdiv)
     real(dp) :: boundary_term = 0.0_dp   !! 2 int_Gamma (q.nu) u~ ds (part of est)
     real(dp), allocatable :: est_elem(:) !! (ntri) element contributions, sum = est
   end type dual_p1_bounds_t
@@ -87,6 +88,7 @@ contains
     end do
     call add_boundary_terms(mesh, u, q, bnd)
     bnd%est = sum(bnd%est_elem)
+    bnd%est_hypercircle = bnd%est
     bnd%energy_lo = 2.0_dp * fu - uu
   end subroutine dual_p1_bounds
 
@@ -151,6 +153,7 @@ contains
     end do
     call add_boundary_terms(mesh, u, q, bnd)
     bnd%est = sum(bnd%est_elem)
+    bnd%est_hypercircle = bnd%est
     bnd%energy_lo = 2.0_dp * fu - uu
   end subroutine dual_p1_bounds_load
 

@@ -52,6 +52,9 @@ module dualsig_assembly_dual_hdiv
     !> ||f - u||^2 + ||grad u||^2 with u the P1 field given to assemble_dual_hdiv (0
     !> without) and f as there: the data part of E of (1.10), for a stopping criterion
     real(dp) :: data_sq = 0.0_dp
+    !> sum_T ||f - Pi_1 f||_T^2 (part of data_sq; 0 when f is sampled instead of given by its
+    !> load data): a constant of E that the sharper bound weights by h_T/pi
+    real(dp) :: data_osc_sq = 0.0_dp
   end type hdiv_system_t
 
 contains
@@ -163,6 +166,7 @@ contains
       if (present(load)) osc_sq = load%osc(t)**2
       call rt1_element(g, fq, rule, ref, ae, be)
       if (present(u)) ue = u(mesh%tri(:, t))
+      sys%data_osc_sq = sys%data_osc_sq + osc_sq
       sys%data_sq = sys%data_sq + osc_sq + g%area * (sum(matmul(g%grad, ue)**2) &
                     + sum(rule%w * (fq - matmul(ue, rule%bary))**2))
       call rt1_condense(ae, be, se, ce, sys%rec_k(:, :, t), sys%rec_d(:, t))
