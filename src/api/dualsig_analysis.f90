@@ -23,7 +23,7 @@ module dualsig_analysis
   use dualsig_strings, only: itoa, rtoa
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
   use dualsig_exact_boundary, only: exact_boundary_check
-  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_move, mesh_release_adjacency, &
+  use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_move, mesh_release_adjacency, mesh_triangle_area, &
                           mesh_longest_side, mesh_coordinate_scale, &
                           mesh_ensure_adjacency
   use dualsig_mesh_check, only: mesh_check_geometry
@@ -99,6 +99,9 @@ module dualsig_analysis
   real(dp), parameter :: exact_consistency_tol = 1.0e-2_dp
   !> explain_small_p1_domain: a P1 domain of smaller diameter may fail for its scale.
   real(dp), parameter :: p1_small_domain = 1.0e-3_dp
+  !> explain_small_p1_domain: a failure on triangles of aspect ratio (longest side^2 over
+  !> twice the area) above this is put down to them.
+  real(dp), parameter :: p1_stretched = 1.0e6_dp
   !> A lower energy bound below this fraction of the upper one is no lower bound for the
   !> certified relative error sqrt(est / energy_lo): it is at the rounding level of the
   !> energy (u_h = 0 on a coarse mesh gives 1e-47 against 10), and the quotient (1e24) is a
@@ -989,14 +992,30 @@ contains
     type(mesh_t), intent(in) :: mesh
     integer, intent(in) :: kind
     type(status_t), intent(inout) :: st
-    real(dp) :: d
+    real(dp) :: d, w(2), aspect
+    integer :: t
     if (kind /= PROBLEM_P1 .or. .not. (st%code == DS_ERR_NUMERIC .or. st%code == DS_ERR_LAPACK)) return
     d = mesh_diameter(mesh)
-    if (.not. (d < p1_small_domain)) return
-    st%msg = st%msg // ' (the domain''s diameter is ' // rtoa(d) // ': problem P1, -Lap u + u = f, is not ' // &
-      'scale-invariant, and its reaction term u weighs about h^2 = ' // rtoa(mesh_h(mesh)**2) // ' against ' // &
-      'the diffusion term, so the system is singular to rounding; expected coordinates in units where the ' // &
-      'domain has a moderate size)'
+    w = maxval(mesh%xy(:, 1:mesh%nnode), dim=2) - minval(mesh%xy(:, 1:mesh%nnode), dim=2)
+    if (d < p1_small_domain) then
+      st%msg = st%msg // ' (the domain''s diameter is ' // rtoa(d) // ': problem P1, -Lap u + u = f, is not ' // &
+        'scale-invariant, and its reaction term u weighs about h^2 = ' // rtoa(mesh_h(mesh)**2) // ' against ' // &
+        'the diffusion term, so the system is singular to rounding; expected coordinates in units where the ' // &
+        'domain has a moderate size)'
+    else
+      ! stretched triangles (a thin domain with few cells across its length): across them the
+      ! couplings of the diffusion term are about aspect^2 times those along them and the
+      ! reaction term's, which fall below rounding
+      aspect = 0.0_dp
+      do t = 1, mesh%ntri
+        aspect = max(aspect, mesh_longest_side(mesh, t)**2 / (2.0_dp * abs(mesh_triangle_area(mesh, t))))
+      end do
+      if (aspect > p1_stretched) st%msg = st%msg // ' (the domain is ' // rtoa(w(1)) // ' by ' // rtoa(w(2)) // &
+        ' and its triangles are stretched to an aspect ratio of ' // rtoa(aspect) // ': problem P1, -Lap u + ' // &
+        'u = f, then has couplings along them and a reaction term about ' // rtoa(aspect**(-2)) // ' times ' // &
+        'those across them, below rounding, so the system is singular; expected triangles of moderate aspect ' // &
+        'ratio, e.g. more cells along the domain)'
+    end if
   end subroutine explain_small_p1_domain
 
   !> The error of u_h against the given exact solution can never exceed a certified bound:
@@ -1428,8 +1447,9 @@ contains
     character(len=:), allocatable :: note
     note = ''
     if (load%nguarded > 0) note = '; on ' // itoa(load%nguarded) // ' piece(s) the interval enclosure of f ' // &
-      'reaches values its cubature points do not show: a strip or spike between them, or a jump; declare ' // &
-      'its line in &problem breaks or use a mesh that resolves it'
+      'reaches values its cubature points do not show: a strip or spike between them, or a jump (declare ' // &
+      'its line in &problem breaks or use a mesh that resolves it), or an enclosure that interval arithmetic ' // &
+      'overestimates where f varies fast (a finer mesh narrows it)'
   end function guard_note
 
   !> The P2 dual field of the level by dual_p2_solve with the settings dset (the kinks of f

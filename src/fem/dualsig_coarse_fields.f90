@@ -15,6 +15,7 @@ module dualsig_coarse_fields
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_expression, only: expression_t, expression_value
+  use dualsig_expression_range, only: expression_range
   use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   use dualsig_status, only: status_t
   implicit none
@@ -42,6 +43,8 @@ module dualsig_coarse_fields
     type(expression_t), allocatable :: exprs(:) !! the expressions of the regions
   contains
     procedure :: value => region_field_value
+    procedure :: range_on_triangle => region_field_range
+    procedure :: evaluation_cost => region_field_cost
   end type region_field_t
 
   !> f = the P1 interpolant of nodal values on the coarse mesh.
@@ -214,6 +217,51 @@ contains
     call locator_find(self%loc, x, y, t, lambda)
     v = expression_value(self%exprs(self%tri_expr(t)), x, y)
   end function region_field_value
+
+  !> An enclosure of the values on a triangle (a piece of a refined triangle, inside one
+  !> coarse triangle): the interval enclosure (expression_range) of the expression of the
+  !> coarse triangle of its centroid; where its vertices lie in other coarse triangles too
+  !> (a triangle not from a refinement of the coarse mesh), the union of the enclosures of
+  !> the expressions found at its vertices and centroid.
+  subroutine region_field_range(self, tri, lo, hi, known, enough)
+    class(region_field_t), intent(in) :: self
+    real(dp), intent(in) :: tri(2, 3)
+    real(dp), intent(out) :: lo, hi
+    logical, intent(out) :: known
+    real(dp), intent(in), optional :: enough(2)
+    real(dp) :: p(2, 4), lambda(3), l1, h1
+    integer :: k, t, e(4)
+    p(:, 1:3) = tri
+    p(:, 4) = sum(tri, dim=2) / 3.0_dp
+    do k = 1, 4
+      call locator_find(self%loc, p(1, k), p(2, k), t, lambda)
+      e(k) = self%tri_expr(t)
+    end do
+    known = .true.
+    if (all(e == e(4))) then
+      call expression_range(self%exprs(e(4)), tri, lo, hi, enough)
+      return
+    end if
+    lo = huge(1.0_dp)
+    hi = -huge(1.0_dp)
+    do k = 1, 4
+      if (any(e(1:k - 1) == e(k))) cycle
+      call expression_range(self%exprs(e(k)), tri, l1, h1)
+      lo = min(lo, l1)
+      hi = max(hi, h1)
+    end do
+  end subroutine region_field_range
+
+  !> The cost of one evaluation (field_t%evaluation_cost): that of the longest expression,
+  !> in units of 64 instructions, at least 1.
+  pure real(dp) function region_field_cost(self) result(cost)
+    class(region_field_t), intent(in) :: self
+    integer :: k
+    cost = 1.0_dp
+    do k = 1, size(self%exprs)
+      cost = max(cost, real(self%exprs(k)%n, dp) / 64.0_dp)
+    end do
+  end function region_field_cost
 
   real(dp) function nodal_field_value(self, x, y) result(v)
     class(nodal_field_t), intent(in) :: self

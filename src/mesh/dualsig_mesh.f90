@@ -191,7 +191,7 @@ contains
     type(status_t), intent(inout) :: st
     type(culprit_t), intent(inout) :: bad
     integer :: t
-    real(dp) :: scale
+    real(dp) :: scale, area, zero
     character(len=320) :: buf
 
     if (mesh%nnode < 3 .or. mesh%ntri < 1) then
@@ -208,9 +208,17 @@ contains
     end if
     scale = mesh_coordinate_scale(mesh)
     do t = 1, mesh%ntri
-      if (mesh_triangle_area(mesh, t) <= mesh_zero_area(mesh, t, scale)) then
-        write (buf, '(a,i0,a)') 'mesh: triangle ', t, &
-          ' has zero or negative area (expected counter-clockwise vertices)'
+      area = mesh_triangle_area(mesh, t)
+      zero = mesh_zero_area(mesh, t, scale)
+      if (area <= zero) then
+        if (area < -zero) then
+          write (buf, '(a,i0,a)') 'mesh: triangle ', t, &
+            ' has zero or negative area: its vertices are clockwise (expected counter-clockwise vertices)'
+        else
+          write (buf, '(a,i0,a,es10.3e3,a,es10.3e3,a)') 'mesh: triangle ', t, ' has zero or negative area: ', &
+            area, ', at most the tolerance ', zero, ' (1e-12 times the square of its longest side, or the ' // &
+            'rounding of its area; expected three non-collinear vertices, not a needle)'
+        end if
         call set_error(st, DS_ERR_MESH, trim(buf))
         bad%tri = t
         return

@@ -19,11 +19,12 @@
 !>     outer sides 1 bottom (y = 0), 2 right (x = 1), 3 top (y = 1), 4 left (x = 0);
 !>     hole sides  5 bottom (y = 1/4), 6 right (x = 3/4), 7 top (y = 3/4), 8 left (x = 1/4).
 module dualsig_mesh_generate
-  use dualsig_kinds, only: dp, i8
+  use dualsig_kinds, only: dp, i8, geom_rel_tol
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_mesh, only: mesh_t, mesh_build_topology
   use dualsig_strings, only: lower
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL, BYTES_LOGICAL
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   implicit none
   private
 
@@ -51,7 +52,8 @@ contains
     logical, allocatable :: active(:,:), diag_right(:,:)
     integer, allocatable :: bside(:), bcell(:,:), marker(:)
     character(len=:), allocatable :: pat
-    character(len=200) :: buf
+    character(len=300) :: buf
+    real(dp) :: cell_area, dx, dy, aspect
     integer :: i, j, b, ist
 
     if (nx < 1 .or. ny < 1) then
@@ -69,6 +71,36 @@ contains
     if (.not. grid_size_ok(int(nx, i8), int(ny, i8))) then
       write (buf, '(a,i0,a,i0,a)') who // ': nx = ', nx, ', ny = ', ny, &
         ' give more triangles than a default integer can count (expected smaller values)'
+      call set_error(st, DS_ERR_INPUT, trim(buf))
+      return
+    end if
+    ! twice a triangle's area must be a normal double (an area that underflows or overflows
+    ! fails the mesh check as "zero or negative area", a vertex order the caller cannot fix)
+    ! (in steps that cannot overflow: the sides first, then the area against huge)
+    dx = x1 / nx - x0 / nx
+    dy = y1 / ny - y0 / ny
+    if (.not. (dx > 0.0_dp .and. dy > 0.0_dp)) then
+      cell_area = 0.0_dp
+    else if (x1 / 2 - x0 / 2 >= huge(1.0_dp) / 2 .or. y1 / 2 - y0 / 2 >= huge(1.0_dp) / 2) then
+      cell_area = ieee_value(1.0_dp, ieee_positive_inf)
+    else if (exponent(dx) + exponent(dy) >= maxexponent(1.0_dp)) then
+      cell_area = ieee_value(1.0_dp, ieee_positive_inf)
+    else
+      cell_area = dx * dy
+    end if
+    if (.not. (ieee_is_finite(cell_area) .and. cell_area >= tiny(1.0_dp))) then
+      write (buf, '(a,4(es12.4e3,a),es12.4e3,a)') who // ': x0, x1, y0, y1 = ', x0, ', ', x1, ', ', y0, ', ', y1, &
+        ' give cells of area ', cell_area, ', which double precision cannot hold (expected a domain whose ' // &
+        'cells have an area between 1e-307 and 1e307: rescale the coordinates)'
+      call set_error(st, DS_ERR_INPUT, trim(buf))
+      return
+    end if
+    ! a triangle's area over its longest side squared: r / (2 (1 + r^2)), r the cells' aspect
+    aspect = min(dx, dy) / max(dx, dy)
+    if (0.5_dp * aspect / (1.0_dp + aspect**2) <= geom_rel_tol) then
+      write (buf, '(a,4(es12.4e3,a),2(i0,a),2(es12.4e3,a))') who // ': x0, x1, y0, y1 = ', x0, ', ', x1, ', ', &
+        y0, ', ', y1, ' and nx, ny = ', nx, ', ', ny, ' give cells of ', dx, ' by ', dy, &
+        ', whose triangles are degenerate (expected cells of aspect ratio below 1e12)'
       call set_error(st, DS_ERR_INPUT, trim(buf))
       return
     end if
