@@ -85,13 +85,9 @@ module dualsig_load_data
   !> The band that shrinking leaves out may carry at most this fraction of the scale of |f|
   !> times the piece's area, by the enclosure on the whole piece (range_consistent).
   real(dp), parameter :: guard_band_rel = 1.0e-6_dp
-  !> range_consistent: a piece whose enclosure's excess over the range at its points is at
-  !> most this fraction of its parent piece's passes.  Near an extremum of a smooth f the
-  !> spread at the points and the centred form's overestimate are both of second order in
-  !> the piece's size, their ratio the same at every depth (8 for the boundary-layer load of
-  !> the fourth adversarial review, G3, never certified with guard_spread 4); the excess
-  !> falls by 4 per level there, while a strip or spike between the points keeps its height.
-  real(dp), parameter :: guard_decay = 1.0_dp / 3.0_dp
+  !> range_consistent: where the enclosure on a piece fails, the union of the enclosures of
+  !> its 4^guard_split_levels subpieces is tried.
+  integer, parameter :: guard_split_levels = 2
   !> Rounding floor of the oscillation pass, relative to the scale int f^2 + |T| f_T^2
   !> (the rounding of (f - f_T)^2 where |f_T| is large: first order in eps).
   real(dp), parameter :: osc_floor = 64.0_dp * epsilon(1.0_dp)
@@ -141,7 +137,6 @@ contains
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     real(dp) :: prange(2)                         ! the range of f at the points of the current piece
     logical :: ok1, ok2, keep, top_ok
-    real(dp) :: top_excess                        ! the excess of f's enclosure on the triangle (range_consistent)
     integer :: t, k, budget, tri_budget
     integer(i8) :: mesh_budget
     call load_data_allocate(data, mesh%ntri, st)
@@ -170,7 +165,7 @@ contains
       local = xy - spread(centroid, 2, 3)
       br_local = br - centroid(1)
       budget = tri_budget
-      call adapt(local, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, huge(1.0_dp), s, ok1)
+      call adapt(local, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
       if (.not. all(ieee_is_finite(s))) then
         call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
           rtoa_pair(centroid) // '), or f^2 overflows there (|f| above about 1e154: rescale the problem)')
@@ -181,7 +176,7 @@ contains
       data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
       slope = data%slope(:, t)
       budget = tri_budget
-      call adapt(local, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, huge(1.0_dp), s, ok2)
+      call adapt(local, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
       data%osc(t) = sqrt(max(s(1), 0.0_dp))
       data%converged(t) = ok1 .and. ok2
     end do
@@ -191,7 +186,7 @@ contains
 
     !> The sums of a pass over the piece xy at subdivision depth: the first pass (fbar
     !> unused) or, with second, int (f - fbar - slope . (x - x_T))^2 and int f^2.
-    recursive subroutine adapt(xy, depth, fbar, second, density, parent_rate, stalls, parent_excess, s, ok)
+    recursive subroutine adapt(xy, depth, fbar, second, density, parent_rate, stalls, s, ok)
       real(dp), intent(in) :: xy(2, 3)
       integer, intent(in) :: depth
       real(dp), intent(in) :: fbar
@@ -199,10 +194,9 @@ contains
       real(dp), intent(in) :: density     !! the triangle's scale per unit area (< 0: set it at depth 0)
       real(dp), intent(in) :: parent_rate !! the parent piece's disagreement per unit area
       integer, intent(in) :: stalls       !! consecutive levels above this one where it did not halve
-      real(dp), intent(in) :: parent_excess !! the parent's excess of f's enclosure (huge: none known)
       real(dp), intent(out) :: s(nsum)
       logical, intent(out) :: ok
-      real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), rho, rate, excess
+      real(dp) :: coarse(nsum), fine(nsum), child(nsum), kids(2, 3, 4), rho, rate
       logical :: ok_child
       integer :: c, stalled
       ! the pieces of depth 0 keep their points and values from the first pass for the
@@ -227,14 +221,9 @@ contains
       ok = sums_agree(coarse, fine, second, rho * piece_area(xy), diameter)
       ! and f must not leave the range of its values at the points by more than the guard allows
       ! (a strip or a spike between them); the triangle's points are the same in both passes
-      ! (or its excess must have fallen below guard_decay times the parent piece's: an
-      ! overestimate of the enclosure, of second order, not a feature, which keeps its size)
-      if (depth == 0 .and. .not. second) top_ok = range_consistent(f, centroid, xy, prange, abs_density, &
-                                                                   data%nguarded, top_excess)
-      excess = merge(top_excess, huge(1.0_dp), depth == 0)
+      if (depth == 0 .and. .not. second) top_ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded)
       if (depth == 0) ok = ok .and. top_ok
-      if (ok .and. depth > 0) ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded, excess, &
-                                                    parent_excess)
+      if (ok .and. depth > 0) ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded)
       ! the disagreement per unit area falls by about 2^6 per level where the rule resolves f;
       ! where it has not at least halved over max_stalls consecutive levels (from
       ! stagnation_depth on) f jumps inside the piece or its evaluation is at its rounding
@@ -257,7 +246,7 @@ contains
       s = 0.0_dp
       ok = .true.
       do c = 1, 4
-        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, rate, stalled, excess, child, ok_child)
+        call adapt(kids(:, :, c), depth + 1, fbar, second, rho, rate, stalled, child, ok_child)
         s = s + child
         ok = ok .and. ok_child
       end do
@@ -411,25 +400,27 @@ contains
 
   !> Whether an enclosure of f on the piece xy (coordinates about centroid) stays within
   !> guard_spread times the spread prange of f at its points plus guard_rel_floor times the
-  !> scale of |f| (a field without enclosures: true).  First on the whole piece; where that
-  !> fails (a jump of f along a side, a mesh line or a break, makes the closed piece's
+  !> scale of |f| (a field without enclosures: true).  First on the whole piece, then as the
+  !> union of the enclosures of its 4^guard_split_levels subpieces (an enclosure too: near an
+  !> extremum of a smooth f the centred form's overestimate and the spread at the points are
+  !> both of second order, their ratio the same at every depth, 8 for the boundary-layer
+  !> load of the fourth adversarial review, G3, never certified; the union's overestimate is
+  !> 16 times smaller, while a strip or spike stays in the subpiece that holds it).  Where
+  !> both fail (a jump of f along a side, a mesh line or a break, makes the closed piece's
   !> enclosure take both values), on the piece shrunk about its centroid by guard_shrink,
   !> provided the band left out, of relative area at most 2 guard_shrink, can carry at most
   !> guard_band_rel of the scale of |f| times the piece's area by the whole piece's
   !> enclosure (a strip along a mesh line inside that band carries more: the fourth
   !> adversarial review's G2, 1e12 on a strip 2e-12 wide on x = 1/2, was certified).
   !> nguarded counts the pieces that fail.
-  logical function range_consistent(f, centroid, xy, prange, abs_density, nguarded, excess, parent_excess) result(ok)
+  logical function range_consistent(f, centroid, xy, prange, abs_density, nguarded) result(ok)
     class(field_t), intent(in) :: f
     real(dp), intent(in) :: centroid(2), xy(2, 3), prange(2), abs_density
     integer, intent(inout) :: nguarded
-    real(dp), intent(out) :: excess                    !! how far the whole piece's enclosure leaves prange
-    real(dp), intent(in), optional :: parent_excess    !! the parent piece's excess
     real(dp) :: tri(2, 3), pc(2), lo, hi, lo_full, hi_full, margin, pmin, pmax, scale
     logical :: known
     integer :: k
     ok = .true.
-    excess = 0.0_dp
     pmin = prange(1)
     pmax = prange(2)
     if (.not. (ieee_is_finite(pmin) .and. ieee_is_finite(pmax))) return
@@ -443,7 +434,9 @@ contains
     if (.not. known) return
     ok = lo_full >= pmin - margin .and. hi_full <= pmax + margin
     if (ok) return
-    excess = max(pmin - lo_full, hi_full - pmax)
+    call split_range(f, tri, guard_split_levels, lo, hi)
+    ok = lo >= pmin - margin .and. hi <= pmax + margin
+    if (ok) return
     ok = max(abs(lo_full), abs(hi_full)) * 2.0_dp * guard_shrink <= guard_band_rel * scale
     if (ok) then
       pc = sum(xy, dim=2) / 3.0_dp
@@ -453,9 +446,36 @@ contains
       call f%range_on_triangle(tri, lo, hi, known, enough=[pmin - margin, pmax + margin])
       ok = lo >= pmin - margin .and. hi <= pmax + margin
     end if
-    if (.not. ok .and. present(parent_excess)) ok = excess <= guard_decay * parent_excess
     if (.not. ok) nguarded = nguarded + 1
   end function range_consistent
+
+  !> The union of the enclosures of f (field_t%range_on_triangle) on the 4^levels pieces of
+  !> the triangle tri by midpoint subdivision: an enclosure of f on tri (the whole real line
+  !> where a piece has none).
+  recursive subroutine split_range(f, tri, levels, lo, hi)
+    class(field_t), intent(in) :: f
+    real(dp), intent(in) :: tri(2, 3)
+    integer, intent(in) :: levels
+    real(dp), intent(out) :: lo, hi
+    real(dp) :: kids(2, 3, 4), l1, h1
+    logical :: known
+    integer :: c
+    if (levels <= 0) then
+      call f%range_on_triangle(tri, lo, hi, known)
+      if (known) return
+      lo = -huge(1.0_dp)
+      hi = huge(1.0_dp)
+      return
+    end if
+    call children(tri, kids)
+    lo = huge(1.0_dp)
+    hi = -huge(1.0_dp)
+    do c = 1, 4
+      call split_range(f, kids(:, :, c), levels - 1, l1, h1)
+      lo = min(lo, l1)
+      hi = max(hi, h1)
+    end do
+  end subroutine split_range
 
   !> Whether load_data_build may keep prev's data where origin points (data%scales set):
   !> both given, origin fits both meshes and the scales are at least (1 - load_keep_slack)
