@@ -25,7 +25,7 @@ module dualsig_analysis
   use dualsig_exact_boundary, only: exact_boundary_check
   use dualsig_mesh, only: mesh_t, mesh_h, mesh_diameter, mesh_move, mesh_release_adjacency, mesh_triangle_area, &
                           mesh_longest_side, mesh_coordinate_scale, &
-                          mesh_ensure_adjacency
+                          mesh_ensure_adjacency, mesh_boundary_markers
   use dualsig_mesh_check, only: mesh_check_geometry
   use dualsig_mesh_refine, only: mesh_refine_uniform, mesh_prolongate_p1
   use dualsig_mesh_adapt, only: mesh_refine_marked, mesh_prolongate_bisection, mesh_mark_doerfler, &
@@ -472,7 +472,7 @@ contains
     if (.not. allocated(an%problem%gamma_u)) allocate (an%problem%gamma_u(0))   ! small: empty
     if (.not. allocated(an%problem%gamma_a)) then
       if (problem%kind == PROBLEM_P1 .and. allocated(an%problem%mesh%bedge_marker)) then
-        an%problem%gamma_a = distinct_markers(an%problem%mesh%bedge_marker)
+        an%problem%gamma_a = mesh_boundary_markers(an%problem%mesh)
       else
         allocate (an%problem%gamma_a(0))                                       ! small: empty
       end if
@@ -1585,19 +1585,4 @@ contains
     call move_alloc(bounds%est_elem, res%est_elem)
     if (an%settings%adapt%enabled .and. allocated(load%mean)) call load_data_move(load, an%load_keep)
   end subroutine dual_level_p2
-
-  !> The distinct values of marker, in the order of their first occurrence.
-  pure function distinct_markers(marker) result(list)
-    integer, intent(in) :: marker(:)
-    integer, allocatable :: list(:)
-    integer :: j, n
-    integer :: seen(size(marker))
-    n = 0
-    do j = 1, size(marker)
-      if (any(seen(1:n) == marker(j))) cycle
-      n = n + 1
-      seen(n) = marker(j)
-    end do
-    list = seen(1:n)
-  end function distinct_markers
 end module dualsig_analysis

@@ -15,7 +15,7 @@ module dualsig_driver
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, DS_ERR_INPUT, DS_OK, &
                             DS_WARN_NOT_CONVERGED, DS_WARN_NOT_CERTIFIED, DS_ERR_IO
   use dualsig_problem_kinds, only: PROBLEM_P1, PROBLEM_P2
-  use dualsig_mesh, only: mesh_t
+  use dualsig_mesh, only: mesh_t, mesh_boundary_markers
   use dualsig_mesh_generate, only: mesh_rectangle, mesh_lshape, mesh_holed_square
   use dualsig_mesh_io, only: mesh_read_text, mesh_note_len
   use dualsig_mesh_gmsh, only: gmsh_physical_t, mesh_read_gmsh, gmsh_markers_from_names
@@ -729,13 +729,7 @@ contains
     integer, allocatable :: markers(:)
     associate (cfg => run%cfg, pb => run%problem)
       if (.not. (run%by_names .or. any(cfg%gamma_u_markers /= 0) .or. any(cfg%gamma_a_markers /= 0))) then
-        allocate (markers(0))                     ! small: empty; the markers of the mesh, ascending
-        if (pb%mesh%nbedge > 0) then
-          markers = [minval(pb%mesh%bedge_marker)]
-          do while (any(pb%mesh%bedge_marker > markers(size(markers))))
-            markers = [markers, minval(pb%mesh%bedge_marker, mask=pb%mesh%bedge_marker > markers(size(markers)))]
-          end do
-        end if
+        markers = mesh_boundary_markers(pb%mesh)
         if (is_p1) then
           pb%gamma_u = [integer ::]
           pb%gamma_a = markers

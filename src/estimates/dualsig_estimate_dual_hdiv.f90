@@ -32,7 +32,7 @@
 !>   is taken >= 0 at the edge ends (it is, for a feasible q), which can only increase E.
 !> Element contributions (edge terms added to the triangle of the edge) are returned.
 module dualsig_estimate_dual_hdiv
-  use dualsig_kinds, only: dp, i8
+  use dualsig_kinds, only: dp, i8, pi
   use dualsig_fields, only: field_t, vector_field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
@@ -50,7 +50,6 @@ module dualsig_estimate_dual_hdiv
 
   !> Degree of the rule for the linear-times-linear integrands of dual_hdiv_bounds_load.
   integer, parameter :: linear_product_degree = 2
-  real(dp), parameter :: pi = 3.14159265358979323846_dp
 
 contains
 

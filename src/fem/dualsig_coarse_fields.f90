@@ -16,6 +16,7 @@ module dualsig_coarse_fields
   use dualsig_mesh, only: mesh_t
   use dualsig_expression, only: expression_t, expression_value
   use dualsig_expression_range, only: expression_range
+  use dualsig_expression_fields, only: expression_cost
   use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
   use dualsig_status, only: status_t
   implicit none
@@ -220,28 +221,32 @@ contains
 
   !> An enclosure of the values on a triangle (a piece of a refined triangle, inside one
   !> coarse triangle): the interval enclosure (expression_range) of the expression of the
-  !> coarse triangle of its centroid; where its vertices lie in other coarse triangles too
-  !> (a triangle not from a refinement of the coarse mesh), the union of the enclosures of
-  !> the expressions found at its vertices and centroid.
+  !> coarse triangle of its centroid, when its vertices lie in that coarse triangle too
+  !> (barycentric coordinates >= inside_tol: a vertex on a side shared with another region
+  !> belongs to both); otherwise (a triangle not from a refinement of the coarse mesh) the
+  !> union of the enclosures of the expressions found at its vertices and centroid.
   subroutine region_field_range(self, tri, lo, hi, known, enough)
     class(region_field_t), intent(in) :: self
     real(dp), intent(in) :: tri(2, 3)
     real(dp), intent(out) :: lo, hi
     logical, intent(out) :: known
     real(dp), intent(in), optional :: enough(2)
+    real(dp), parameter :: inside_tol = -1.0e-12_dp
     real(dp) :: p(2, 4), lambda(3), l1, h1
     integer :: k, t, e(4)
     p(:, 1:3) = tri
     p(:, 4) = sum(tri, dim=2) / 3.0_dp
-    do k = 1, 4
-      call locator_find(self%loc, p(1, k), p(2, k), t, lambda)
-      e(k) = self%tri_expr(t)
-    end do
     known = .true.
-    if (all(e == e(4))) then
+    call locator_find(self%loc, p(1, 4), p(2, 4), t, lambda)
+    e(4) = self%tri_expr(t)
+    if (all([(minval(barycentric(self%loc, t, p(1, k), p(2, k))) >= inside_tol, k = 1, 3)])) then
       call expression_range(self%exprs(e(4)), tri, lo, hi, enough)
       return
     end if
+    do k = 1, 3
+      call locator_find(self%loc, p(1, k), p(2, k), t, lambda)
+      e(k) = self%tri_expr(t)
+    end do
     lo = huge(1.0_dp)
     hi = -huge(1.0_dp)
     do k = 1, 4
@@ -252,14 +257,13 @@ contains
     end do
   end subroutine region_field_range
 
-  !> The cost of one evaluation (field_t%evaluation_cost): that of the longest expression,
-  !> in units of 64 instructions, at least 1.
+  !> The cost of one evaluation (field_t%evaluation_cost): that of the longest expression.
   pure real(dp) function region_field_cost(self) result(cost)
     class(region_field_t), intent(in) :: self
     integer :: k
     cost = 1.0_dp
     do k = 1, size(self%exprs)
-      cost = max(cost, real(self%exprs(k)%n, dp) / 64.0_dp)
+      cost = max(cost, expression_cost(self%exprs(k)))
     end do
   end function region_field_cost
 

@@ -14,7 +14,7 @@ module dualsig_expression_fields
   implicit none
   private
 
-  public :: expression_field_t, expression_gradient_t, expression_field, expression_gradient
+  public :: expression_field_t, expression_gradient_t, expression_field, expression_gradient, expression_cost
 
   !> The scalar field of a compiled expression: value(x, y) = expression_value(expr, x, y).
   type, extends(field_t) :: expression_field_t
@@ -81,12 +81,18 @@ contains
     known = .true.
   end subroutine expression_field_range
 
-  !> The cost of one evaluation: the number of instructions over cost_unit_instructions,
-  !> at least 1.
+  !> The cost of one evaluation (field_t%evaluation_cost): expression_cost of its expression.
   pure real(dp) function expression_field_cost(self) result(cost)
     class(expression_field_t), intent(in) :: self
-    cost = max(1.0_dp, real(self%expr%n, dp) / cost_unit_instructions)
+    cost = expression_cost(self%expr)
   end function expression_field_cost
+
+  !> The cost of one evaluation of expr in units of field_t%evaluation_cost: its number of
+  !> instructions over cost_unit_instructions, at least 1.
+  pure real(dp) function expression_cost(expr) result(cost)
+    type(expression_t), intent(in) :: expr
+    cost = max(1.0_dp, real(expr%n, dp) / cost_unit_instructions)
+  end function expression_cost
 
   function expression_gradient_value(self, x, y) result(g)
     class(expression_gradient_t), intent(in) :: self

@@ -21,7 +21,7 @@ module dualsig_mesh
 
   public :: mesh_t, mesh_build_topology, mesh_triangle_area, mesh_diameter, mesh_h, mesh_zero_area, &
             mesh_coordinate_scale, mesh_longest_side
-  public :: mesh_move, mesh_release_adjacency, mesh_ensure_adjacency
+  public :: mesh_move, mesh_release_adjacency, mesh_ensure_adjacency, mesh_boundary_markers
 
   !> Rounding of a triangle's area (a cross product of coordinate differences) in units of
   !> eps * coordinate scale * side (mesh_zero_area).
@@ -101,6 +101,19 @@ contains
     h = mesh_longest_side(mesh, t)
     z = max(geom_rel_tol * h**2, area_rounding * epsilon(1.0_dp) * scale * h)
   end function mesh_zero_area
+
+  !> The distinct markers of the boundary edges, ascending (none without boundary edges).
+  pure function mesh_boundary_markers(mesh) result(markers)
+    type(mesh_t), intent(in) :: mesh
+    integer, allocatable :: markers(:)
+    allocate (markers(0))                     ! small: empty
+    if (mesh%nbedge < 1) return
+    markers = [minval(mesh%bedge_marker(1:mesh%nbedge))]
+    do while (any(mesh%bedge_marker(1:mesh%nbedge) > markers(size(markers))))
+      markers = [markers, minval(mesh%bedge_marker(1:mesh%nbedge), &
+                                 mask=mesh%bedge_marker(1:mesh%nbedge) > markers(size(markers)))]
+    end do
+  end function mesh_boundary_markers
 
   !> The longest side of triangle t.
   pure real(dp) function mesh_longest_side(mesh, t) result(h)

@@ -314,6 +314,8 @@ contains
         if (.not. is_ok(st)) return
         pres%j_start = j_start
         res%iterations = res%iterations + pres%iterations
+        res%converged = pres%converged
+        res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
       end if
     end do
     ! feasible; never worse than the start (feasible too)
