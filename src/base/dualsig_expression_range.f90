@@ -18,6 +18,13 @@
 !> Where an operation may leave its domain on the box (log, sqrt, asin, acos of an interval
 !> reaching outside it, a division by an interval containing 0, a non-integer power of a
 !> negative number) the enclosure is the whole real line (lo = -Inf, hi = +Inf): no claim.
+!> Invariant: where the value at a point of the box may be NaN (an operation outside its
+!> domain, 0 * Inf, Inf - Inf, Inf / Inf, sin or cos of an overflow), its enclosure is the
+!> whole line, and every operation but a comparison (and, or, not, the condition of an if)
+!> maps a whole-line operand to the whole line: a comparison, min, max or a product by 0 at
+!> the points can turn a NaN into a finite value, which the enclosure must then still hold
+!> (min(x, NaN) is x at the points; 0 * [no claim] is not [0, 0]).  A bound that may be
+!> +Inf or -Inf at a point is infinite in the enclosure.
 !>
 !> Infinite and NaN intermediate values are part of the arithmetic (1/[0, 1], exp of a
 !> large bound): floating-point traps are disarmed while an enclosure is computed and the
@@ -224,6 +231,10 @@ contains
     type(ivd_t), intent(in) :: a
     type(ivd_t) :: r
     real(dp) :: d(2)
+    if (no_claim(a%v)) then                   ! a NaN at a point stays one (the invariant)
+      r = no_claim_ivd()
+      return
+    end if
     r%smooth = a%smooth
     r%v = unary_value(op, a%v)
     if (.not. r%smooth) return                ! no gradient wanted (or none exists)
@@ -263,6 +274,10 @@ contains
     real(dp), intent(in) :: c
     type(ivd_t) :: r
     real(dp) :: d(2)
+    if (no_claim(a%v)) then
+      r = no_claim_ivd()
+      return
+    end if
     r%smooth = a%smooth
     r%v = iv_powc(a%v, c)
     if (.not. r%smooth) return
@@ -280,6 +295,12 @@ contains
     type(geometry_t), intent(in) :: g
     type(ivd_t) :: r
     r%smooth = a%smooth .and. b%smooth
+    if (op < OP_LT .or. op > OP_OR) then     ! not a comparison, and, or: NaN in, NaN out
+      if (no_claim(a%v) .or. no_claim(b%v)) then
+        r = no_claim_ivd()
+        return
+      end if
+    end if
     select case (op)
     case (OP_ADD, OP_SUB, OP_MUL, OP_DIV)
       r = ivd_arith(op, a, b)
@@ -494,6 +515,18 @@ contains
     if (abs(a(2)) > huge(1.0_dp)) r(2) = a(2)
   end function widen
 
+  !> Whether a is the whole line (or has a NaN bound): the value at a point may be NaN.
+  pure logical function no_claim(a)
+    real(dp), intent(in) :: a(2)
+    no_claim = a(1) /= a(1) .or. a(2) /= a(2) .or. (a(1) < -huge(1.0_dp) .and. a(2) > huge(1.0_dp))
+  end function no_claim
+
+  !> The whole line, no gradient.
+  pure function no_claim_ivd() result(r)
+    type(ivd_t) :: r
+    r = ivd_t(v=entire_iv(), smooth=.false.)
+  end function no_claim_ivd
+
   pure function entire_iv() result(r)
     real(dp) :: r(2)
     r = [-ieee_value(1.0_dp, ieee_positive_inf), ieee_value(1.0_dp, ieee_positive_inf)]
@@ -524,20 +557,21 @@ contains
     r = iv_mul([c, c], a)
   end function iv_scale
 
-  !> The product; 0 times an infinite bound counts as 0.
+  !> The product; the whole line where 0 may meet an infinite bound (0 * Inf is NaN at a
+  !> point whose factor overflowed: the invariant of the module header).
   pure function iv_mul(a, b) result(r)
     real(dp), intent(in) :: a(2), b(2)
     real(dp) :: r(2), p(4)
-    integer :: k
     if (a(1) /= a(1) .or. a(2) /= a(2) .or. b(1) /= b(1) .or. b(2) /= b(2)) then
       r = entire_iv()
       return
     end if
     p = [a(1) * b(1), a(1) * b(2), a(2) * b(1), a(2) * b(2)]
-    do k = 1, 4
-      if (p(k) /= p(k)) p(k) = 0.0_dp                   ! 0 * Inf
-    end do
-    r = widen([minval(p), maxval(p)])
+    if (any(p /= p)) then                              ! 0 * Inf
+      r = entire_iv()
+    else
+      r = widen([minval(p), maxval(p)])
+    end if
   end function iv_mul
 
   !> The quotient; the whole line when b contains 0.
@@ -685,7 +719,11 @@ contains
   pure function iv_sin(a) result(r)
     real(dp), intent(in) :: a(2)
     real(dp) :: r(2), margin
-    if (.not. all(ieee_is_finite(a)) .or. a(2) - a(1) >= 2.0_dp * pi) then
+    if (.not. all(ieee_is_finite(a))) then         ! sin(Inf) is NaN (the invariant)
+      r = entire_iv()
+      return
+    end if
+    if (a(2) - a(1) >= 2.0_dp * pi) then
       r = [-1.0_dp, 1.0_dp]
       return
     end if
