@@ -1429,10 +1429,9 @@ contains
     res%load_unresolved = load%nunconverged
     if (load%nunconverged > 0 .and. load%budget_spent) then
       call add_warning(res, DS_WARN_NOT_CERTIFIED, 'the integrals of f did not converge on ' // &
-        itoa(load%nunconverged) // ' triangle(s): the cubature spent its budget of evaluations (about 64 ' // &
-        'pieces per triangle; its degree-5 rule reaches the tolerance 1e-12 only on pieces of about 1/200 ' // &
-        'of the length on which f changes, a period of an oscillation: a smooth f needs triangles of about ' // &
-        '1/25 of that length, e.g. 25 per period, to be certified; unless f is singular there, as ' // &
+        itoa(load%nunconverged) // ' triangle(s): the cubature spent its budget of evaluations (f varies ' // &
+        'faster than its rules resolve there: a smooth f needs triangles of about half the length on which ' // &
+        'it changes, e.g. 2 per period of an oscillation, to be certified; unless f is singular there, as ' // &
         '1/(x - c), or its values are rounding noise, as on a domain far from the origin for its size: ' // &
         'then no mesh certifies it)' // guard_note(load) // ': the bounds are NOT certified')
     else if (load%nunconverged > 0) then

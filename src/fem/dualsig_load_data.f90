@@ -24,6 +24,10 @@
 !> each child is treated the same way, down to load_max_depth levels, at most load_max_pieces
 !> subdivided pieces per triangle and pass and load_mesh_pieces_* in the whole mesh.  A triangle where the
 !> criterion still fails is marked not converged: a bound that uses it is not certified.
+!> Three attempts per triangle, the first that converges taken: Radon's rule to depth
+!> load_p_depth, a collapsed Gauss rule of degree load_p_degree to the same depth (a smooth f
+!> that varies on the triangle's scale), Radon's rule as deep as the budgets allow (a jump
+!> or a kink inside the triangle).
 module dualsig_load_data
   use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: field_t
@@ -47,6 +51,15 @@ module dualsig_load_data
   real(dp), parameter :: load_keep_slack = 1.0e-3_dp
   !> Subdivision levels of a triangle at most (4^depth pieces where f is not resolved).
   integer, parameter :: load_max_depth = 10
+  !> A triangle is first integrated by the degree-5 rule down to load_p_depth levels; where
+  !> that does not converge, by a rule of degree load_p_degree to the same depth (a smooth f
+  !> that varies on the scale of the triangle: the degree-5 rule needs pieces of about 1/200
+  !> of a period of sin for load_rel_tol, the degree-12 one about 1/8, so sin(200 x) on
+  !> triangles of side 1/256 converges at depth 1 instead of 5); only then by the degree-5
+  !> rule as deep as the budgets allow (a jump or a kink inside the triangle, where only
+  !> small pieces help).  A piece of the high rule costs its points over the degree-5 rule's
+  !> in the budgets.
+  integer, parameter :: load_p_depth = 2, load_p_degree = 12
   !> From this subdivision depth on, a piece whose disagreement (per unit area) did not at
   !> least halve over max_stalls consecutive levels is not subdivided further (and not
   !> converged).
@@ -131,21 +144,23 @@ contains
     real(dp), intent(in), optional :: breaks(:)
     type(load_data_t), intent(in), optional :: prev
     integer, intent(in), optional :: origin(:)
-    type(tri_rule_t) :: rule
+    type(tri_rule_t) :: rule, rule_lo, rule_hi
     type(tri_points_t) :: tp_work, tp_top(0:4)
     real(dp), allocatable :: br(:), br_local(:), v_work(:), v_top(:,:), xq(:), yq(:)
     real(dp) :: xy(2, 3), local(2, 3), centroid(2), s(nsum), area, diameter, abs_density, sq_density, slope(2)
     real(dp) :: prange(2)                         ! the range of f at the points of the current piece
-    logical :: ok1, ok2, keep, top_ok
-    integer :: t, k, budget, tri_budget
+    logical :: ok, keep, top_ok
+    integer :: t, k, budget, tri_budget, depth_limit, piece_cost, nguarded0
     integer(i8) :: mesh_budget
     call load_data_allocate(data, mesh%ntri, st)
     if (.not. is_ok(st)) return
     br = [real(dp) ::]
     if (present(breaks)) br = breaks
-    rule = tri_rule(5)
-    allocate (v_work(4 * rule%n), v_top(4 * rule%n, 0:4), xq(4 * rule%n), yq(4 * rule%n), stat=k)
-    if (alloc_failed(k, st, 'the cubature values', 24_i8 * rule%n, BYTES_REAL)) return
+    rule_lo = tri_rule(5)
+    rule_hi = tri_rule(load_p_degree)
+    rule = rule_lo
+    allocate (v_work(4 * rule_hi%n), v_top(4 * rule_hi%n, 0:4), xq(4 * rule_hi%n), yq(4 * rule_hi%n), stat=k)
+    if (alloc_failed(k, st, 'the cubature values', 24_i8 * rule_hi%n, BYTES_REAL)) return
     prange = [huge(1.0_dp), -huge(1.0_dp)]
     call global_scales(abs_density, sq_density)
     data%scales = [abs_density, sq_density]
@@ -158,19 +173,37 @@ contains
       end if
       xy = mesh%xy(:, mesh%tri(:, t))
       centroid = sum(xy, dim=2) / 3.0_dp
-      area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
+      area = piece_area(xy)
       diameter = piece_size(xy)
       data%diameter(t) = diameter
       ! pieces in coordinates about the centroid: x - x_T exact for a small triangle far out
       local = xy - spread(centroid, 2, 3)
       br_local = br - centroid(1)
+      call both_passes(t, rule_lo, load_p_depth, ok)
+      if (.not. ok .and. is_ok(st)) call both_passes(t, rule_hi, load_p_depth, ok)
+      if (.not. ok .and. is_ok(st)) call both_passes(t, rule_lo, load_max_depth, ok)
+      if (.not. is_ok(st)) return
+      data%converged(t) = ok
+    end do
+    data%nunconverged = count(.not. data%converged)
+
+  contains
+
+    !> Both passes over triangle t with the rule r to depth max_depth: mean, moments, slope and
+    !> oscillation of f on t; ok when both converged.  The guard count is the last attempt's.
+    subroutine both_passes(t, r, max_depth, ok)
+      integer, intent(in) :: t, max_depth
+      type(tri_rule_t), intent(in) :: r
+      logical, intent(out) :: ok
+      logical :: ok1, ok2
+      rule = r
+      depth_limit = max_depth
+      piece_cost = max(1, (r%n + rule_lo%n - 1) / rule_lo%n)
+      nguarded0 = data%nguarded
       budget = tri_budget
       call adapt(local, 0, 0.0_dp, .false., -1.0_dp, huge(1.0_dp), 0, s, ok1)
-      if (.not. all(ieee_is_finite(s))) then
-        call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // ' (centroid ' // &
-          rtoa_pair(centroid) // '), or f^2 overflows there (|f| above about 1e154: rescale the problem)')
-        return
-      end if
+      call check_finite(s, t, centroid, ok, st)
+      if (.not. ok) return
       data%mean(t) = s(1) / area
       data%moment(:, t) = s(2:3)
       data%slope(:, t) = linear_slope(xy, centroid, area, s(2:3))
@@ -178,11 +211,9 @@ contains
       budget = tri_budget
       call adapt(local, 0, data%mean(t), .true., -1.0_dp, huge(1.0_dp), 0, s, ok2)
       data%osc(t) = sqrt(max(s(1), 0.0_dp))
-      data%converged(t) = ok1 .and. ok2
-    end do
-    data%nunconverged = count(.not. data%converged)
-
-  contains
+      ok = ok1 .and. ok2
+      if (.not. ok .and. max_depth < load_max_depth) data%nguarded = nguarded0   ! another attempt follows
+    end subroutine both_passes
 
     !> The sums of a pass over the piece xy at subdivision depth: the first pass (fbar
     !> unused) or, with second, int (f - fbar - slope . (x - x_T))^2 and int f^2.
@@ -235,14 +266,14 @@ contains
         s = fine
         return
       end if
-      if (ok .or. depth >= load_max_depth .or. budget <= 0 .or. mesh_budget <= 0 .or. &
+      if (ok .or. depth >= depth_limit .or. budget <= 0 .or. mesh_budget <= 0 .or. &
           .not. all(ieee_is_finite(fine))) then
         if (.not. ok .and. (budget <= 0 .or. mesh_budget <= 0)) data%budget_spent = .true.
         s = fine
         return
       end if
-      budget = budget - 1
-      mesh_budget = mesh_budget - 1
+      budget = budget - piece_cost
+      mesh_budget = mesh_budget - piece_cost
       s = 0.0_dp
       ok = .true.
       do c = 1, 4
@@ -297,21 +328,12 @@ contains
       end if
       if (.not. second) then
         call tri_points_set(xy, rule, tp_top(slot), br_local)
-        if (tp_top(slot)%n > size(v_top, 1)) call grow_top(tp_top(slot)%n)
+        if (tp_top(slot)%n > size(v_top, 1)) call grow_top(v_top, tp_top(slot)%n)
         call f_at_points(f, centroid, tp_top(slot), v_top(:, slot), xq, yq, data%evaluations)
       end if
       s = sums_of(tp_top(slot), v_top(:, slot), fbar, slope, second)
       call extend_range(prange, v_top(1:tp_top(slot)%n, slot))
     end function piece_sums
-
-    !> v_top with room for n values a slot (the values kept).
-    subroutine grow_top(n)
-      integer, intent(in) :: n
-      real(dp), allocatable :: tmp(:,:)
-      allocate (tmp(2 * n, 0:4))                        ! small: the points of five pieces
-      tmp(1:size(v_top, 1), :) = v_top
-      call move_alloc(tmp, v_top)
-    end subroutine grow_top
 
   end subroutine load_data_build
 
@@ -597,6 +619,28 @@ contains
     real(dp), intent(in) :: xy(2, 3)
     a = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
   end function piece_area
+
+  !> v_top (values by slot 0:4) with room for n values a slot (the values kept).
+  pure subroutine grow_top(v_top, n)
+    real(dp), allocatable, intent(inout) :: v_top(:,:)
+    integer, intent(in) :: n
+    real(dp), allocatable :: tmp(:,:)
+    allocate (tmp(2 * n, 0:4))                        ! small: the points of five pieces
+    tmp(1:size(v_top, 1), :) = v_top
+    call move_alloc(tmp, v_top)
+  end subroutine grow_top
+
+  !> ok: the sums s of triangle t (of the given centroid) are finite; otherwise an error in st
+  !> (f not finite there, or f^2 overflowing).
+  subroutine check_finite(s, t, centroid, ok, st)
+    real(dp), intent(in) :: s(:), centroid(2)
+    integer, intent(in) :: t
+    logical, intent(out) :: ok
+    type(status_t), intent(inout) :: st
+    ok = all(ieee_is_finite(s))
+    if (.not. ok) call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // &
+      ' (centroid ' // rtoa_pair(centroid) // '), or f^2 overflows there (|f| above about 1e154: rescale the problem)')
+  end subroutine check_finite
 
   !> The longest side of a piece.
   pure real(dp) function piece_size(xy) result(h)
