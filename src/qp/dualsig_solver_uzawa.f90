@@ -161,12 +161,12 @@ contains
     end function natural_residual
 
     !> The natural residual relative to the size of the constraint rows themselves,
-    !> ||rho B y|| + ||z|| (0 when that is 0).
+    !> ||rho B y|| + ||z|| (relative to ||b|| when that size is 0).
     real(dp) function residual_of_constraints() result(rc)
       real(dp) :: d
-      rc = norm2(natural_residual())
       d = norm2(rho * (w + e)) + norm2(z)
-      if (d > 0.0_dp) rc = rc / d
+      if (.not. d > 0.0_dp) d = bnorm
+      rc = norm2(natural_residual()) / d
     end function residual_of_constraints
 
     !> Converged: the natural residual at most tol relative to ||b|| (the paper's test) and
