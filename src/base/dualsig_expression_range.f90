@@ -75,15 +75,23 @@ contains
   !> lo <= f(x, y) <= hi on the closed triangle tri(:, 1:3) (the whole real line when no
   !> finite enclosure is found).  enough (optional): an interval that suffices the caller;
   !> the gradient pass is not made when the natural enclosure on the bounding box lies in it.
-  subroutine expression_range(expr, tri, lo, hi, enough)
+  !> rough (optional): f may have a kink or a jump inside the triangle: the argument of an
+  !> abs, the difference of the arguments of a min or max, or a comparison (an if's
+  !> condition) is not decided on it by the centred form (the gradient pass is then always
+  !> made).  A cubature's agreement proves nothing there (a kink between a line of its
+  !> subdivision and its nearest points is seen as linear by a piece and its children).
+  subroutine expression_range(expr, tri, lo, hi, enough, rough)
     type(expression_t), intent(in) :: expr
     real(dp), intent(in) :: tri(2, 3)
     real(dp), intent(out) :: lo, hi
     real(dp), intent(in), optional :: enough(2)
+    logical, intent(out), optional :: rough
     type(geometry_t) :: g
     type(ivd_t) :: whole
     real(dp) :: r(2)
+    logical :: kinks
     type(ieee_status_type) :: saved
+    if (present(rough)) rough = .false.
     if (expr%n == 0) then
       lo = 0.0_dp
       hi = 0.0_dp
@@ -98,18 +106,22 @@ contains
     call ieee_set_halting_mode(ieee_usual, .false.)
     call ieee_set_halting_mode(ieee_underflow, .false.)
     r = entire_iv()
+    kinks = .false.
     ! the natural enclosure on the box alone first (no gradient) when one within enough suffices
-    if (present(enough)) then
-      whole = run_segment(expr, 1, expr%n, g, .false.)
+    if (present(enough) .and. .not. present(rough)) then
+      whole = run_segment(expr, 1, expr%n, g, .false., kinks)
       r = whole%v
     end if
-    if (.not. present(enough)) then
-      whole = run_segment(expr, 1, expr%n, g, .true.)
+    if (.not. present(enough) .or. present(rough)) then
+      whole = run_segment(expr, 1, expr%n, g, .true., kinks)
       r = tri_range(whole, g)
     else if (.not. (r(1) >= enough(1) .and. r(2) <= enough(2))) then
-      whole = run_segment(expr, 1, expr%n, g, .true.)
+      whole = run_segment(expr, 1, expr%n, g, .true., kinks)
       r = tri_range(whole, g)
     end if
+    ! f not Lipschitz on the box (an infinite derivative: sqrt(u) where u reaches 0, so
+    ! sqrt((x - c)**2) = abs(x - c)) is rough too
+    if (present(rough)) rough = kinks .or. .not. (whole%smooth .and. all(ieee_is_finite([whole%gx, whole%gy])))
     call ieee_set_status(saved)
     lo = r(1)
     hi = r(2)
@@ -142,11 +154,12 @@ contains
 
   !> The enclosure of the instructions pc0..pc1 (a whole expression or a branch of an if);
   !> grad: the gradients and centroid values wanted (else every value is marked not smooth).
-  recursive function run_segment(expr, pc0, pc1, g, grad) result(r)
+  recursive function run_segment(expr, pc0, pc1, g, grad, kinks) result(r)
     type(expression_t), intent(in) :: expr
     integer, intent(in) :: pc0, pc1
     type(geometry_t), intent(in) :: g
     logical, intent(in) :: grad
+    logical, intent(inout) :: kinks        !! set where f may kink or jump inside the triangle
     type(ivd_t) :: r
     type(ivd_t) :: s(max(expr%depth, 1)), a, b
     real(dp) :: k
@@ -173,12 +186,13 @@ contains
         pend = expr%code(2, pelse)
         select case (truth(tri_range(s(t), g)))
         case (1)
-          s(t) = run_segment(expr, pc + 1, pelse - 1, g, grad)
+          s(t) = run_segment(expr, pc + 1, pelse - 1, g, grad, kinks)
         case (0)
-          s(t) = run_segment(expr, pelse + 1, pend - 1, g, grad)
+          s(t) = run_segment(expr, pelse + 1, pend - 1, g, grad, kinks)
         case default
-          a = run_segment(expr, pc + 1, pelse - 1, g, grad)
-          b = run_segment(expr, pelse + 1, pend - 1, g, grad)
+          kinks = .true.
+          a = run_segment(expr, pc + 1, pelse - 1, g, grad, kinks)
+          b = run_segment(expr, pelse + 1, pend - 1, g, grad, kinks)
           s(t) = ivd_t(v=[min(a%v(1), b%v(1)), max(a%v(2), b%v(2))], smooth=.false.)
         end select
         pc = pend
@@ -188,8 +202,15 @@ contains
       case default
         if (op >= 40 .and. op < 60) then
           t = t - 1
+          if (op == OP_MIN .or. op == OP_MAX) then
+            if (straddles(tri_range(ivd_arith(OP_SUB, s(t), s(t + 1)), g))) kinks = .true.
+          end if
           s(t) = ivd_binary(op, s(t), s(t + 1), g)
+          if (op >= OP_LT .and. op <= OP_OR .and. s(t)%v(1) < s(t)%v(2)) kinks = .true.   ! undecided
         else
+          if (op == OP_ABS) then
+            if (straddles(tri_range(s(t), g))) kinks = .true.
+          end if
           s(t) = ivd_unary(op, s(t))
         end if
       end select
@@ -514,6 +535,12 @@ contains
     if (abs(a(1)) > huge(1.0_dp)) r(1) = a(1)            ! an infinite bound stays
     if (abs(a(2)) > huge(1.0_dp)) r(2) = a(2)
   end function widen
+
+  !> Whether a has values of both signs (a sign change, a kink of abs or min, may lie inside).
+  pure logical function straddles(a)
+    real(dp), intent(in) :: a(2)
+    straddles = a(1) < 0.0_dp .and. a(2) > 0.0_dp
+  end function straddles
 
   !> Whether a is the whole line (or has a NaN bound): the value at a point may be NaN.
   pure logical function no_claim(a)

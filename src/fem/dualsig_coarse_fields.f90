@@ -225,35 +225,40 @@ contains
   !> (barycentric coordinates >= inside_tol: a vertex on a side shared with another region
   !> belongs to both); otherwise (a triangle not from a refinement of the coarse mesh) the
   !> union of the enclosures of the expressions found at its vertices and centroid.
-  subroutine region_field_range(self, tri, lo, hi, known, enough)
+  subroutine region_field_range(self, tri, lo, hi, known, enough, rough)
     class(region_field_t), intent(in) :: self
     real(dp), intent(in) :: tri(2, 3)
     real(dp), intent(out) :: lo, hi
     logical, intent(out) :: known
     real(dp), intent(in), optional :: enough(2)
+    logical, intent(out), optional :: rough
     real(dp), parameter :: inside_tol = -1.0e-12_dp
     real(dp) :: p(2, 4), lambda(3), l1, h1
     integer :: k, t, e(4)
+    logical :: kinked
     p(:, 1:3) = tri
     p(:, 4) = sum(tri, dim=2) / 3.0_dp
     known = .true.
     call locator_find(self%loc, p(1, 4), p(2, 4), t, lambda)
     e(4) = self%tri_expr(t)
     if (all([(minval(barycentric(self%loc, t, p(1, k), p(2, k))) >= inside_tol, k = 1, 3)])) then
-      call expression_range(self%exprs(e(4)), tri, lo, hi, enough)
+      call expression_range(self%exprs(e(4)), tri, lo, hi, enough, rough)
       return
     end if
     do k = 1, 3
       call locator_find(self%loc, p(1, k), p(2, k), t, lambda)
       e(k) = self%tri_expr(t)
     end do
+    ! the piece meets an interface between regions with other expressions: f may jump there
+    if (present(rough)) rough = any(e(1:3) /= e(4))
     lo = huge(1.0_dp)
     hi = -huge(1.0_dp)
     do k = 1, 4
       if (any(e(1:k - 1) == e(k))) cycle
-      call expression_range(self%exprs(e(k)), tri, l1, h1)
+      call expression_range(self%exprs(e(k)), tri, l1, h1, rough=kinked)
       lo = min(lo, l1)
       hi = max(hi, h1)
+      if (present(rough)) rough = rough .or. kinked
     end do
   end subroutine region_field_range
 

@@ -71,13 +71,14 @@ contains
 
   !> An enclosure of the values on a triangle by interval arithmetic (expression_range); the
   !> whole real line where none is found.
-  subroutine expression_field_range(self, tri, lo, hi, known, enough)
+  subroutine expression_field_range(self, tri, lo, hi, known, enough, rough)
     class(expression_field_t), intent(in) :: self
     real(dp), intent(in) :: tri(2, 3)
     real(dp), intent(out) :: lo, hi
     logical, intent(out) :: known
     real(dp), intent(in), optional :: enough(2)
-    call expression_range(self%expr, tri, lo, hi, enough)
+    logical, intent(out), optional :: rough
+    call expression_range(self%expr, tri, lo, hi, enough, rough)
     known = .true.
   end subroutine expression_field_range
 

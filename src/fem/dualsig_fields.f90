@@ -33,9 +33,10 @@ module dualsig_fields
 
   !> A scalar field of position: f%value(x, y); f%values_at(x, y, v) at many points at once
   !> (v(i) = f%value(x(i), y(i)); a field whose evaluation has a per-call overhead, such as
-  !> a compiled expression, overrides it); f%range_on_triangle(tri, lo, hi, known[, enough]):
-  !> lo <= f <= hi on the triangle when known (a field that can enclose its values, such as a compiled
-  !> expression by interval arithmetic, overrides the default known = .false.);
+  !> a compiled expression, overrides it); f%range_on_triangle(tri, lo, hi, known[, enough,
+  !> rough]): lo <= f <= hi on the triangle when known (a field that can enclose its values, such as a compiled
+  !> expression by interval arithmetic, overrides the default known = .false.), and rough
+  !> where f may have a kink or a jump inside the triangle;
   !> f%evaluation_cost(): the cost of one evaluation in units of a short formula's (1 by
   !> default; a compiled expression gives its length over 64 instructions),
   !> which the cubature divides its budget of pieces by.
@@ -96,12 +97,14 @@ contains
   end subroutine field_values
 
   !> No enclosure (the default of field_t%range_on_triangle): known = .false.
-  subroutine field_range_on_triangle(self, tri, lo, hi, known, enough)
+  subroutine field_range_on_triangle(self, tri, lo, hi, known, enough, rough)
     class(field_t), intent(in) :: self
     real(dp), intent(in) :: tri(2, 3)        !! the vertices
     real(dp), intent(out) :: lo, hi
     logical, intent(out) :: known
     real(dp), intent(in), optional :: enough(2)  !! an enclosure within this suffices (no sharper one needed)
+    logical, intent(out), optional :: rough      !! f may kink or jump inside (known only)
+    if (present(rough)) rough = .false.
     lo = -huge(1.0_dp)
     hi = huge(1.0_dp)
     known = .false.

@@ -252,9 +252,9 @@ contains
       ok = sums_agree(coarse, fine, second, rho * piece_area(xy), diameter)
       ! and f must not leave the range of its values at the points by more than the guard allows
       ! (a strip or a spike between them); the triangle's points are the same in both passes
-      if (depth == 0 .and. .not. second) top_ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded)
+      if (depth == 0 .and. .not. second) top_ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded, br_local)
       if (depth == 0) ok = ok .and. top_ok
-      if (ok .and. depth > 0) ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded)
+      if (ok .and. depth > 0) ok = range_consistent(f, centroid, xy, prange, abs_density, data%nguarded, br_local)
       ! the disagreement per unit area falls by about 2^6 per level where the rule resolves f;
       ! where it has not at least halved over max_stalls consecutive levels (from
       ! stagnation_depth on) f jumps inside the piece or its evaluation is at its rounding
@@ -433,16 +433,21 @@ contains
   !> near an extremum of a smooth f the centred form's overestimate and the spread at the
   !> points are both of second order, their ratio the same at every depth, 8 for the
   !> boundary-layer load of the review's G3, never certified; the union's overestimate is 16
-  !> times smaller, while a strip or spike stays in the subpiece that holds it).  nguarded
-  !> counts the pieces that fail all three.
-  logical function range_consistent(f, centroid, xy, prange, abs_density, nguarded) result(ok)
+  !> times smaller, while a strip or spike stays in the subpiece that holds it).  Each of the
+  !> three fails where the enclosure is rough (f may kink or jump inside: the agreement of a
+  !> piece and its children proves nothing there, the sixth review's K1), unless a break line
+  !> crosses the piece (the rule is cut there).  nguarded counts the pieces that fail all
+  !> three.
+  logical function range_consistent(f, centroid, xy, prange, abs_density, nguarded, br) result(ok)
     class(field_t), intent(in) :: f
     real(dp), intent(in) :: centroid(2), xy(2, 3), prange(2), abs_density
     integer, intent(inout) :: nguarded
+    real(dp), intent(in) :: br(:)                !! the break lines x = br(k), about the centroid as xy
     real(dp) :: tri(2, 3), pc(2), lo, hi, lo_full, hi_full, margin, pmin, pmax, scale
-    logical :: known
+    logical :: known, rough, cut
     integer :: k
     ok = .true.
+    cut = crossed(xy, br)                        ! a break line crosses the piece: its rule is cut there
     pmin = prange(1)
     pmax = prange(2)
     if (.not. (ieee_is_finite(pmin) .and. ieee_is_finite(pmax))) return
@@ -452,9 +457,10 @@ contains
     do k = 1, 3
       tri(:, k) = centroid + xy(:, k)
     end do
-    call f%range_on_triangle(tri, lo_full, hi_full, known, enough=[pmin - margin, pmax + margin])
+    call f%range_on_triangle(tri, lo_full, hi_full, known, enough=[pmin - margin, pmax + margin], rough=rough)
     if (.not. known) return
-    ok = lo_full >= pmin - margin .and. hi_full <= pmax + margin
+    rough = rough .and. .not. cut                ! a jump or kink on the break line is integrated exactly
+    ok = lo_full >= pmin - margin .and. hi_full <= pmax + margin .and. .not. rough
     if (ok) return
     ! the shrunk piece first (one enclosure: a jump along a side, the common case), then the
     ! subpieces (4^guard_split_levels enclosures)
@@ -463,31 +469,33 @@ contains
       do k = 1, 3
         tri(:, k) = centroid + (pc + (1.0_dp - guard_shrink) * (xy(:, k) - pc))
       end do
-      call f%range_on_triangle(tri, lo, hi, known, enough=[pmin - margin, pmax + margin])
-      ok = lo >= pmin - margin .and. hi <= pmax + margin
+      call f%range_on_triangle(tri, lo, hi, known, enough=[pmin - margin, pmax + margin], rough=rough)
+      ok = lo >= pmin - margin .and. hi <= pmax + margin .and. (cut .or. .not. rough)
       if (ok) return
       do k = 1, 3
         tri(:, k) = centroid + xy(:, k)
       end do
     end if
-    call split_range(f, tri, guard_split_levels, lo, hi)
-    ok = lo >= pmin - margin .and. hi <= pmax + margin
+    call split_range(f, tri, guard_split_levels, lo, hi, rough)
+    ok = lo >= pmin - margin .and. hi <= pmax + margin .and. (cut .or. .not. rough)
     if (.not. ok) nguarded = nguarded + 1
   end function range_consistent
 
   !> The union of the enclosures of f (field_t%range_on_triangle) on the 4^levels pieces of
   !> the triangle tri by midpoint subdivision: an enclosure of f on tri (the whole real line
   !> where a piece has none).
-  recursive subroutine split_range(f, tri, levels, lo, hi)
+  recursive subroutine split_range(f, tri, levels, lo, hi, rough)
     class(field_t), intent(in) :: f
     real(dp), intent(in) :: tri(2, 3)
     integer, intent(in) :: levels
     real(dp), intent(out) :: lo, hi
+    logical, intent(out) :: rough                !! f may kink or jump inside a piece
     real(dp) :: kids(2, 3, 4), l1, h1
-    logical :: known
+    logical :: known, r1
     integer :: c
+    rough = .false.
     if (levels <= 0) then
-      call f%range_on_triangle(tri, lo, hi, known)
+      call f%range_on_triangle(tri, lo, hi, known, rough=rough)
       if (known) return
       lo = -huge(1.0_dp)
       hi = huge(1.0_dp)
@@ -497,9 +505,10 @@ contains
     lo = huge(1.0_dp)
     hi = -huge(1.0_dp)
     do c = 1, 4
-      call split_range(f, kids(:, :, c), levels - 1, l1, h1)
+      call split_range(f, kids(:, :, c), levels - 1, l1, h1, r1)
       lo = min(lo, l1)
       hi = max(hi, h1)
+      rough = rough .or. r1
     end do
   end subroutine split_range
 
@@ -641,6 +650,13 @@ contains
     if (.not. ok) call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // &
       ' (centroid ' // rtoa_pair(centroid) // '), or f^2 overflows there (|f| above about 1e154: rescale the problem)')
   end subroutine check_finite
+
+  !> Whether one of the break lines x = br(k) passes through the interior of the piece xy
+  !> (both in the same coordinates).
+  pure logical function crossed(xy, br)
+    real(dp), intent(in) :: xy(2, 3), br(:)
+    crossed = any(br > minval(xy(1, :)) .and. br < maxval(xy(1, :)))
+  end function crossed
 
   !> The longest side of a piece.
   pure real(dp) function piece_size(xy) result(h)
