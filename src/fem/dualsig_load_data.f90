@@ -32,7 +32,7 @@ module dualsig_load_data
   use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set
+  use dualsig_quadrature, only: tri_rule_t, tri_rule, tri_points_t, tri_points_set, crossed_by_breaks
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT, DS_ERR_NUMERIC
   use dualsig_strings, only: itoa
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
@@ -447,7 +447,7 @@ contains
     logical :: known, rough, cut
     integer :: k
     ok = .true.
-    cut = crossed(xy, br)                        ! a break line crosses the piece: its rule is cut there
+    cut = crossed_by_breaks(xy, br)              ! a break line crosses the piece: its rule is cut there
     pmin = prange(1)
     pmax = prange(2)
     if (.not. (ieee_is_finite(pmin) .and. ieee_is_finite(pmax))) return
@@ -459,8 +459,8 @@ contains
     end do
     call f%range_on_triangle(tri, lo_full, hi_full, known, enough=[pmin - margin, pmax + margin], rough=rough)
     if (.not. known) return
-    rough = rough .and. .not. cut                ! a jump or kink on the break line is integrated exactly
-    ok = lo_full >= pmin - margin .and. hi_full <= pmax + margin .and. .not. rough
+    ! a rough piece fails, unless a break crosses it (a jump or kink there is integrated exactly)
+    ok = lo_full >= pmin - margin .and. hi_full <= pmax + margin .and. (cut .or. .not. rough)
     if (ok) return
     ! the shrunk piece first (one enclosure: a jump along a side, the common case), then the
     ! subpieces (4^guard_split_levels enclosures)
@@ -650,13 +650,6 @@ contains
     if (.not. ok) call set_error(st, DS_ERR_INPUT, 'load data: f is not finite in triangle ' // itoa(t) // &
       ' (centroid ' // rtoa_pair(centroid) // '), or f^2 overflows there (|f| above about 1e154: rescale the problem)')
   end subroutine check_finite
-
-  !> Whether one of the break lines x = br(k) passes through the interior of the piece xy
-  !> (both in the same coordinates).
-  pure logical function crossed(xy, br)
-    real(dp), intent(in) :: xy(2, 3), br(:)
-    crossed = any(br > minval(xy(1, :)) .and. br < maxval(xy(1, :)))
-  end function crossed
 
   !> The longest side of a piece.
   pure real(dp) function piece_size(xy) result(h)

@@ -11,7 +11,7 @@ module dualsig_quadrature
   implicit none
   private
 
-  public :: tri_rule_t, tri_rule, gauss_legendre, tri_points_t, tri_points, tri_points_set
+  public :: tri_rule_t, tri_rule, gauss_legendre, tri_points_t, tri_points, tri_points_set, crossed_by_breaks
 
   !> Newton iteration for the Gauss-Legendre nodes stops when the update is below this.
   real(dp), parameter :: newton_tol = 4.0_dp * epsilon(1.0_dp)
@@ -52,6 +52,13 @@ contains
     call tri_points_set(xy, rule, tp, breaks)
   end function tri_points
 
+  !> Whether one of the lines x = breaks(k) passes through the interior of the triangle xy
+  !> (tri_points_set cuts the rule there).
+  pure logical function crossed_by_breaks(xy, breaks)
+    real(dp), intent(in) :: xy(2, 3), breaks(:)
+    crossed_by_breaks = any(minval(xy(1, :)) < breaks .and. breaks < maxval(xy(1, :)))
+  end function crossed_by_breaks
+
   !> tri_points into tp, whose arrays are kept when large enough (a loop over the triangles
   !> allocates them once, not three times per triangle); a triangle that no break line
   !> crosses takes the rule directly, without pieces.
@@ -66,11 +73,9 @@ contains
     logical :: crossed
     area = abs(tri_area(xy))
     nbreak = 0
-    if (present(breaks)) nbreak = size(breaks)
     crossed = .false.
-    do k = 1, nbreak
-      crossed = crossed .or. (minval(xy(1, :)) < breaks(k) .and. breaks(k) < maxval(xy(1, :)))
-    end do
+    if (present(breaks)) nbreak = size(breaks)
+    if (present(breaks)) crossed = crossed_by_breaks(xy, breaks)
     if (.not. crossed) then
       call points_of_rule(xy, area, rule, tp)
       return
