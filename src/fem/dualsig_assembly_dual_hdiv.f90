@@ -23,7 +23,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, sort_row_by_column
+  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside, rt1_reference_t, rt1_reference
   use dualsig_status, only: status_t
@@ -39,6 +39,15 @@ module dualsig_assembly_dual_hdiv
   !> Relative size below which an entry of the prolongation is a rounded zero: the exact
   !> values are O(1) multiples of the row's largest, the rounded zeros O(eps) of it.
   real(dp), parameter :: prolongation_zero = 64.0_dp * epsilon(1.0_dp)
+  !> Red refinement (mesh_refine_uniform): the barycentric coordinates in the parent of its
+  !> vertices a_1, a_2, a_3 and side midpoints m_1, m_2, m_3 (m_k on a_k a_{k+1}), points 1..6;
+  !> the points that are the vertices of child c (its triangle 4 t - 4 + c); the centroids of
+  !> the children.
+  real(dp), parameter :: child_point(3, 6) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, &
+    0.0_dp, 0.0_dp, 1.0_dp, 0.5_dp, 0.5_dp, 0.0_dp, 0.0_dp, 0.5_dp, 0.5_dp, 0.5_dp, 0.0_dp, 0.5_dp], [3, 6])
+  integer, parameter :: child_vertex(3, 4) = reshape([1, 4, 6, 4, 2, 5, 6, 5, 3, 4, 5, 6], [3, 4])
+  real(dp), parameter :: child_centroid(3, 4) = reshape([4.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 4.0_dp, 1.0_dp, &
+    1.0_dp, 1.0_dp, 4.0_dp, 2.0_dp, 2.0_dp, 2.0_dp], [3, 4]) / 6.0_dp
 
   !> The condensed system of the side unknowns and what recovers the interior ones.
   type :: hdiv_system_t
@@ -257,31 +266,36 @@ contains
   end subroutine hdiv_prolongate
 
   !> The interior unknowns of hdiv_prolongate: xf's side unknowns given, the interior ones
-  !> matched to the coarse field xc at the centroid of every fine triangle.
+  !> matched to the coarse field xc at the centroid of every fine triangle.  Per coarse
+  !> triangle: its geometry and coefficients once, the centroids of its children at their
+  !> fixed barycentric coordinates (child_centroid).
   pure subroutine hdiv_prolongate_interior(coarse, fine, xc, xf)
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: xc(:)
     real(dp), intent(inout) :: xf(:)
     type(rt1_geometry_t) :: gc, gf
-    real(dp) :: cf(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), q(2)
+    real(dp) :: c(rt1_nbasis), cf(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), q(2)
     real(dp) :: m(2, 2), det
-    integer :: tf, tc, n
-    do tf = 1, fine%ntri
-      tc = (tf + 3) / 4
+    integer :: tf, tc, n, ch
+    do tc = 1, coarse%ntri
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
-      gf = rt1_geometry(fine%xy(:, fine%tri(:, tf)))
-      call rt1_values(gc, barycentric(gc, sum(gf%xy, dim=2) / 3.0_dp), psi, dpsi)
-      q = matmul(psi, hdiv_local_coefficients(coarse, xc, tc))
-      n = 2 * fine%nedge + 2 * tf
-      xf(n - 1:n) = 0.0_dp
-      cf = hdiv_local_coefficients(fine, xf, tf)
-      call rt1_values(gf, [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp, psi, dpsi)
-      ! q - (side part) = c7 psi_7 + c8 psi_8 at the centroid: a 2x2 system
-      q = q - matmul(psi(:, 1:6), cf(1:6))
-      m = psi(:, 7:8)
-      det = m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1)
-      xf(n - 1) = (m(2, 2) * q(1) - m(1, 2) * q(2)) / det
-      xf(n) = (m(1, 1) * q(2) - m(2, 1) * q(1)) / det
+      c = hdiv_local_coefficients(coarse, xc, tc)
+      do ch = 1, 4
+        tf = 4 * tc - 4 + ch
+        call rt1_values(gc, child_centroid(:, ch), psi, dpsi)
+        q = matmul(psi, c)
+        gf = rt1_geometry(fine%xy(:, fine%tri(:, tf)))
+        n = 2 * fine%nedge + 2 * tf
+        xf(n - 1:n) = 0.0_dp
+        cf = hdiv_local_coefficients(fine, xf, tf)
+        call rt1_values(gf, [1.0_dp, 1.0_dp, 1.0_dp] / 3.0_dp, psi, dpsi)
+        ! q - (side part) = c7 psi_7 + c8 psi_8 at the centroid: a 2x2 system
+        q = q - matmul(psi(:, 1:6), cf(1:6))
+        m = psi(:, 7:8)
+        det = m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1)
+        xf(n - 1) = (m(2, 2) * q(1) - m(1, 2) * q(2)) / det
+        xf(n) = (m(1, 1) * q(2) - m(2, 1) * q(1)) / det
+      end do
     end do
   end subroutine hdiv_prolongate_interior
 
@@ -315,39 +329,64 @@ contains
     real(dp), intent(in), optional :: xc(:)
     real(dp), intent(inout), optional :: xf(:)
     type(rt1_geometry_t) :: gc
-    real(dp) :: psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), w(rt1_nbasis), sgn(rt1_nside)
+    real(dp) :: psi(2, rt1_nbasis, 6), dpsi(rt1_nbasis), nu(2), w(rt1_nbasis), sgn(rt1_nside)
     real(dp) :: v(rt1_nside), c(rt1_nbasis)
-    integer :: tf, tc, k, e, j, cdofs(rt1_nside), i, row, ist
+    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), i, row, ist, ch, ip, q
     p%m = 2 * fine%nedge
     p%n = 2 * coarse%nedge
     allocate (p%rowptr(p%m + 1), p%col(rt1_nside * p%m), p%val(rt1_nside * p%m), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 prolongation', (3 * rt1_nside + 1) * p%m, BYTES_INT)) return
-    do tf = 1, fine%ntri
-      tc = (tf + 3) / 4
+    do tc = 1, coarse%ntri
+      ! per coarse triangle: the basis at its vertices and side midpoints (the ends of every
+      ! fine edge inside it), its unknowns in increasing order (the columns of its rows)
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
       call hdiv_side_dofs(coarse, tc, cdofs, sgn)
+      order = sorted_order(cdofs)
+      do ip = 1, 6
+        call rt1_values(gc, child_point(:, ip), psi(:, :, ip), dpsi)
+      end do
       if (present(xc)) c = hdiv_local_coefficients(coarse, xc, tc)
-      do k = 1, 3
-        e = fine%tri_edge(k, tf)
-        if (fine%edge_tri(1, e) /= tf) cycle
-        nu = side_normal(fine, tf, k)
-        do j = 1, 2
-          call rt1_values(gc, barycentric(gc, fine%xy(:, fine%edge_nodes(j, e))), psi, dpsi)
-          w = matmul(nu, psi)
-          if (present(xc) .and. present(xf)) xf(2 * e - 2 + j) = dot_product(w, c)
-          do i = 1, rt1_nside
-            v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
+      do ch = 1, 4
+        tf = 4 * tc - 4 + ch
+        do k = 1, 3
+          e = fine%tri_edge(k, tf)
+          if (fine%edge_tri(1, e) /= tf) cycle
+          nu = side_normal(fine, tf, k)
+          do j = 1, 2
+            ! the point of the parent at fine node edge_nodes(j, e): vertex k or k+1 of child ch
+            ip = child_vertex(merge(k, mod(k, 3) + 1, fine%edge_nodes(j, e) == fine%tri(k, tf)), ch)
+            w = matmul(nu, psi(:, :, ip))
+            if (present(xc) .and. present(xf)) xf(2 * e - 2 + j) = dot_product(w, c)
+            do i = 1, rt1_nside
+              v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
+            end do
+            row = 2 * e - 2 + j
+            q = rt1_nside * (row - 1)
+            p%col(q + 1:q + rt1_nside) = cdofs(order)
+            p%val(q + 1:q + rt1_nside) = v(order)
           end do
-          row = 2 * e - 2 + j
-          p%col(rt1_nside * (row - 1) + 1:rt1_nside * row) = cdofs
-          p%val(rt1_nside * (row - 1) + 1:rt1_nside * row) = v
-          call sort_row_by_column(p%col(rt1_nside * (row - 1) + 1:rt1_nside * row), &
-                                  p%val(rt1_nside * (row - 1) + 1:rt1_nside * row))
         end do
       end do
     end do
     call drop_exact_zeros(p)
   end subroutine hdiv_prolongation_matrix
+
+  !> The permutation that sorts the (distinct) integers a increasingly (insertion sort).
+  pure function sorted_order(a) result(order)
+    integer, intent(in) :: a(:)
+    integer :: order(size(a)), i, j, o
+    order = [(i, i = 1, size(a))]
+    do i = 2, size(a)
+      o = order(i)
+      j = i - 1
+      do while (j >= 1)
+        if (a(order(j)) <= a(o)) exit
+        order(j + 1) = order(j)
+        j = j - 1
+      end do
+      order(j + 1) = o
+    end do
+  end function sorted_order
 
   !> Compact p (rt1_nside entries per row, stored at 6 (row-1) + 1 ..) to its entries above
   !> prolongation_zero times the largest of their row; sets p%rowptr.
