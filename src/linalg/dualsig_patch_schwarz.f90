@@ -49,7 +49,9 @@ module dualsig_patch_schwarz
     integer, allocatable :: nact(:)      !! (npatch) unknowns of patch p in use
     integer, allocatable :: touch(:)     !! the patches with a bounded unknown (factorised again by mg_hold)
     integer(i8), allocatable :: foff(:) !! (npatch+1) factor of p is fac(foff(p):foff(p+1)-1)
-    real(dp), allocatable :: fac(:)      !! packed lower Cholesky factors, column by column
+    !> packed lower Cholesky factors, column by column, each diagonal entry stored as its
+    !> reciprocal (the substitutions multiply)
+    real(dp), allocatable :: fac(:)
   end type patch_schwarz_t
 
   !> One level of a hierarchy.
@@ -277,7 +279,7 @@ contains
       ! forward L y = r, then backward L^T y = y (packed columns)
       off = int(ps%foff(p)) - 1
       do j = 1, m
-        y(j) = y(j) / ps%fac(off + 1)
+        y(j) = y(j) * ps%fac(off + 1)
         do i = j + 1, m
           y(i) = y(i) - ps%fac(off + i - j + 1) * y(j)
         end do
@@ -288,7 +290,7 @@ contains
         do i = j + 1, m
           y(j) = y(j) - ps%fac(off + i - j + 1) * y(i)
         end do
-        y(j) = y(j) / ps%fac(off + 1)
+        y(j) = y(j) * ps%fac(off + 1)
       end do
       do j = 1, m
         i = ps%idx(base + j)
@@ -406,7 +408,8 @@ contains
     list(m + 1:) = buf(1:nh)
   end subroutine partition_held
 
-  !> Cholesky factor L (packed lower, column by column) of the SPD block blk; ierr /= 0
+  !> Cholesky factor L (packed lower, column by column, the diagonal entries as their
+  !> reciprocals) of the SPD block blk; ierr /= 0
   !> when a pivot is not positive.
   pure subroutine dense_cholesky_packed(blk, l, ierr)
     real(dp), intent(inout) :: blk(:,:)
@@ -430,7 +433,7 @@ contains
     do j = 1, m
       do i = j, m
         off = off + 1
-        l(off) = blk(i, j)
+        l(off) = merge(1.0_dp / blk(j, j), blk(i, j), i == j)
       end do
     end do
   end subroutine dense_cholesky_packed
