@@ -131,9 +131,10 @@ contains
   !> f enters through its values at the points of `rule`: with `load` (optional, the load
   !> data of f on mesh) those of Pi_1 f, so that be = -(f, div psi_i) is exact (div psi_i
   !> is linear) and ||f - u||^2 = osc_T^2 + ||Pi_1 f - u||^2 too, without evaluating f;
-  !> without it f itself.  Out of memory: DS_ERR_MEMORY in st (without st the program
-  !> stops, see dualsig_alloc).
-  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st, u, load)
+  !> without it f itself.  With renumber (optional), the system's unknowns are the side
+  !> unknowns in that numbering (sys%a, sys%b; rec_k and rec_d stay local to the triangles).
+  !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
+  subroutine assemble_dual_hdiv(mesh, f, rule, sys, st, u, load, renumber)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
@@ -141,6 +142,8 @@ contains
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: u(:)
     type(load_data_t), intent(in), optional :: load
+    !> (2 nedge) side unknown i of the field vector is unknown renumber(i) of the system
+    integer, intent(in), optional :: renumber(:)
     integer, allocatable :: cliques(:,:)
     type(rt1_reference_t) :: ref
     type(rt1_geometry_t) :: g
@@ -151,6 +154,7 @@ contains
     if (alloc_failed(ist, st, 'the RT1 element unknowns', rt1_nside * mesh%ntri, BYTES_INT)) return
     do t = 1, mesh%ntri
       call hdiv_side_dofs(mesh, t, cliques(:, t), sgn)
+      if (present(renumber)) cliques(:, t) = renumber(cliques(:, t))
     end do
     call csr_pattern_from_cliques(2 * mesh%nedge, cliques, sys%a, st)
     if (has_failed(st)) return
@@ -181,6 +185,7 @@ contains
       call rt1_condense(ae, be, se, ce, sys%rec_k(:, :, t), sys%rec_d(:, t))
       sys%shift = sys%shift - 0.5_dp * dot_product(be(7:8), sys%rec_d(:, t))
       call hdiv_side_dofs(mesh, t, dofs, sgn)
+      if (present(renumber)) dofs = renumber(dofs)
       ! local = sgn * global: S_global = D S D, c_global = D c, rec_k D
       do i = 1, rt1_nside
         se(:, i) = sgn * se(:, i) * sgn(i)

@@ -68,6 +68,9 @@ module dualsig_problem_dual_hdiv
     logical :: ready = .false.               !! q and p_next belong to the current mesh
     !> the last measured ratio of consecutive CG decreases (pcg_result_t%step_ratio; 0: none)
     real(dp) :: cg_ratio = 0.0_dp
+    !> the numbering of the last level in the hierarchy: its side unknown i (field vector)
+    !> is unknown perm(i) of its matrix (patch_numbering); not allocated: the identity
+    integer, allocatable :: perm(:)
   end type hdiv_nested_t
 
   !> Start value of a bounded unknown predicted free (contact: q.nu > 0 expected).
@@ -89,7 +92,8 @@ contains
   !> (optional: exact, see assemble_dual_hdiv).  u_primal (optional, nnode): the primal
   !> solution, for the first active set (complementarity) and the start.  st carries
   !> DS_WARN_NOT_CONVERGED when the iteration limit was reached (x is still feasible).
-  !> sys_out (optional) returns the condensed system (for tests).
+  !> sys_out (optional) returns the condensed system (for tests; on the levels of 'nested'
+  !> after the first, in the numbering of nest%perm).
   subroutine dual_hdiv_solve(mesh, f, rule, settings, x, res, st, u_primal, sys_out, nest, load)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
@@ -103,7 +107,7 @@ contains
     type(hdiv_nested_t), intent(inout), optional :: nest   !! 'nested': the state between levels
     type(load_data_t), intent(in), optional :: load        !! the load data of f: f enters through it
     type(hdiv_system_t) :: sys
-    integer, allocatable :: kind(:)
+    integer, allocatable :: kind(:), ptr(:), idx(:), perm(:)
     real(dp), allocatable :: xs(:)
     integer :: n, ist
     logical :: nested, inexact
@@ -116,7 +120,17 @@ contains
     nested = trim(settings%method) == 'nested' .and. present(nest)
     inexact = .false.
     if (nested) inexact = nest%ready
-    call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal, load)
+    if (inexact) then
+      ! the vertex patches of the V-cycle's smoother, and the level's unknowns numbered as
+      ! the patches first reach them, so that a patch's rows lie together in memory
+      call vertex_patches(mesh, ptr, idx, st)
+      if (.not. is_ok(st)) return
+      call patch_numbering(2 * mesh%nedge, idx, perm, st)
+      if (.not. is_ok(st)) return
+      call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal, load, renumber=perm)
+    else
+      call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal, load)
+    end if
     if (.not. is_ok(st)) return
     n = sys%a%n
     call dual_hdiv_bound_kinds(mesh, kind, st)
@@ -129,7 +143,7 @@ contains
       call solve_uzawa(mesh, sys, kind, settings, xs, res, st)
     else if (inexact) then
       xs = nest%q(1:n)
-      call solve_nested(mesh, sys, kind, settings, nest, xs, res, st, u_primal)
+      call solve_nested(mesh, sys, kind, settings, nest, ptr, idx, perm, xs, res, st, u_primal)
     else
       ! 'active_set', and the first level of 'nested' (the coarsest level of its hierarchy)
       if (nested) call dual_hdiv_nested_free(nest)
@@ -255,38 +269,68 @@ contains
   end subroutine dual_hdiv_nested_free
 
   !> The inexact solve of method 'nested' from the start xs (see the module header); the
-  !> level joins the hierarchy of nest.
-  subroutine solve_nested(mesh, sys, kind, settings, nest, xs, res, st, u_primal)
+  !> level joins the hierarchy of nest.  sys is assembled in the numbering perm
+  !> (patch_numbering of the vertex patches ptr/idx, which are in the field's numbering);
+  !> xs and kind are in the field's numbering, on entry and on return.
+  subroutine solve_nested(mesh, sys, kind, settings, nest, ptr, idx, perm, xs, res, st, u_primal)
     type(mesh_t), intent(in) :: mesh
     type(hdiv_system_t), intent(inout) :: sys
     integer, intent(in) :: kind(:)
     type(dual_p1_settings_t), intent(in) :: settings
     type(hdiv_nested_t), intent(inout) :: nest
+    integer, intent(in) :: ptr(:)
+    integer, intent(inout) :: idx(:)
+    integer, allocatable, intent(inout) :: perm(:)
     real(dp), intent(inout) :: xs(:)
     type(dual_p1_result_t), intent(inout) :: res
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: u_primal(:)
-    type(pcg_result_t) :: pres
-    logical, allocatable :: free(:)
-    integer, allocatable :: ptr(:), idx(:)
-    real(dp), allocatable :: xs0(:)
-    real(dp) :: j_floor, j_repaired, j_start
-    integer :: round
+    logical, allocatable :: free(:), bounded(:)
+    real(dp), allocatable :: xp(:)
+    integer :: ist
     where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
+    allocate (free(size(xs)), bounded(size(xs)), xp(size(xs)), stat=ist)
+    if (alloc_failed(ist, st, 'the nested RT1 vectors', 2 * size(xs), BYTES_REAL)) return
     free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
     if (present(u_primal)) call complementarity_prediction(mesh, u_primal, xs, free)
-    xs0 = xs
-    j_floor = nested_floor(sys)
-    ! vertex patches of all side unknowns (the held ones are taken out by mg_hold)
-    call vertex_patches(mesh, kind == kind, ptr, idx, st=st)
+    ! to the level's numbering: the start, the masks, the patches, the prolongation
+    xp(perm) = xs
+    free(perm) = free
+    bounded(perm) = kind == BOUND_LOWER
+    idx = perm(idx)
+    call renumber_prolongation(nest%p_next, perm, nest%perm, st)
     if (.not. is_ok(st)) return
-    call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, kind == BOUND_LOWER, st)
+    call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, bounded, st)
     if (.not. is_ok(st)) return
     nest%ready = .false.
+    call nested_iterate(sys, bounded, nest, settings, free, xp, res, st)
+    if (.not. is_ok(st)) return
+    xs = xp(perm)
+    call move_alloc(perm, nest%perm)
+  end subroutine solve_nested
+
+  !> The iteration of 'nested' on the level just added to nest%mg (its numbering): CG from
+  !> x on the free unknowns, then rounds of holding the free bounded unknowns that went
+  !> negative (module header).  x is feasible on return and never worse than on entry.
+  subroutine nested_iterate(sys, bounded, nest, settings, free, x, res, st)
+    type(hdiv_system_t), intent(in) :: sys
+    logical, intent(in) :: bounded(:)
+    type(hdiv_nested_t), intent(inout) :: nest
+    type(dual_p1_settings_t), intent(in) :: settings
+    logical, intent(inout) :: free(:)
+    real(dp), intent(inout) :: x(:)
+    type(dual_p1_result_t), intent(inout) :: res
+    type(status_t), intent(out) :: st
+    type(pcg_result_t) :: pres
+    real(dp), allocatable :: x0(:)
+    real(dp) :: j_floor, j_repaired, j_start
+    integer :: round
+    x0 = x
+    j_floor = nested_floor(sys)
     call mg_hold(nest%mg, free, st)
     if (.not. is_ok(st)) return
     call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
-                       min(settings%max_iter, nested_max_iter), xs, pres, st, ratio=nest%cg_ratio)
+                       min(settings%max_iter, nested_max_iter), x, pres, st, ratio=nest%cg_ratio)
     if (.not. is_ok(st)) return
     if (pres%step_ratio > 0.0_dp) nest%cg_ratio = pres%step_ratio
     res%iterations = pres%iterations
@@ -298,19 +342,19 @@ contains
     ! relaxation does not recover (P1 on a domain of diameter 1e-4, where the divergence
     ! term dominates S by 1e10), CG again with the new hold
     do round = 1, nested_max_rounds
-      if (.not. any(free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)) exit
-      where (free .and. kind == BOUND_LOWER .and. xs < 0.0_dp)
-        xs = 0.0_dp
+      if (.not. any(free .and. bounded .and. x < 0.0_dp)) exit
+      where (free .and. bounded .and. x < 0.0_dp)
+        x = 0.0_dp
         free = .false.
       end where
       call mg_hold(nest%mg, free, st)
       if (.not. is_ok(st)) return
-      call mg_relax_bounded(nest%mg, sys%b, xs, 1)
-      j_repaired = quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs)
+      call mg_relax_bounded(nest%mg, sys%b, x, 1)
+      j_repaired = quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, x)
       if (j_repaired - j_floor > repair_factor * max(pres%j_value - j_floor, 0.0_dp)) then
         j_start = pres%j_start
         call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
-                           min(settings%max_iter, nested_max_iter), xs, pres, st, ratio=nest%cg_ratio)
+                           min(settings%max_iter, nested_max_iter), x, pres, st, ratio=nest%cg_ratio)
         if (.not. is_ok(st)) return
         pres%j_start = j_start
         res%iterations = res%iterations + pres%iterations
@@ -319,9 +363,66 @@ contains
       end if
     end do
     ! feasible; never worse than the start (feasible too)
-    where (kind == BOUND_LOWER) xs = max(xs, 0.0_dp)
-    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, xs) > pres%j_start) xs = xs0
-  end subroutine solve_nested
+    where (bounded) x = max(x, 0.0_dp)
+    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, x) > pres%j_start) x = x0
+  end subroutine nested_iterate
+
+  !> The numbering of the side unknowns (n of them) in which the vertex patches idx (in the
+  !> field's numbering, in their order along the Z-order curve) first reach them:
+  !> unknown i becomes perm(i).  Every side unknown is in a patch (an edge has two ends).
+  subroutine patch_numbering(n, idx, perm, st)
+    integer, intent(in) :: n
+    integer, intent(in) :: idx(:)
+    integer, allocatable, intent(out) :: perm(:)
+    type(status_t), intent(inout) :: st
+    integer :: k, next, ist
+    allocate (perm(n), source=0, stat=ist)
+    if (alloc_failed(ist, st, 'the numbering of the RT1 unknowns', n, BYTES_INT)) return
+    next = 0
+    do k = 1, size(idx)
+      if (perm(idx(k)) /= 0) cycle
+      next = next + 1
+      perm(idx(k)) = next
+    end do
+    do k = 1, n                      ! none left on a mesh; kept a permutation regardless
+      if (perm(k) /= 0) cycle
+      next = next + 1
+      perm(k) = next
+    end do
+  end subroutine patch_numbering
+
+  !> The prolongation p (rows: the fine level's side unknowns, columns: the coarse ones, both
+  !> in the field's numbering) in the levels' numberings: row i becomes row fine(i), column
+  !> j column coarse(j) (coarse not allocated: the identity).
+  subroutine renumber_prolongation(p, fine, coarse, st)
+    type(rect_t), intent(inout) :: p
+    integer, intent(in) :: fine(:)
+    integer, allocatable, intent(in) :: coarse(:)
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: rowptr(:), col(:)
+    real(dp), allocatable :: val(:)
+    integer :: i, r, len, ist, nnz
+    nnz = p%rowptr(p%m + 1) - 1          ! the arrays of p may be longer (drop_exact_zeros)
+    allocate (rowptr(p%m + 1), col(nnz), val(nnz), stat=ist)
+    if (alloc_failed(ist, st, 'the renumbered RT1 prolongation', 2 * nnz + p%m, BYTES_REAL)) return
+    rowptr(1) = 1
+    rowptr(2:) = 0
+    do i = 1, p%m
+      rowptr(fine(i) + 1) = p%rowptr(i + 1) - p%rowptr(i)
+    end do
+    do r = 1, p%m
+      rowptr(r + 1) = rowptr(r + 1) + rowptr(r)
+    end do
+    do i = 1, p%m
+      len = p%rowptr(i + 1) - p%rowptr(i)
+      col(rowptr(fine(i)):rowptr(fine(i)) + len - 1) = p%col(p%rowptr(i):p%rowptr(i + 1) - 1)
+      val(rowptr(fine(i)):rowptr(fine(i)) + len - 1) = p%val(p%rowptr(i):p%rowptr(i + 1) - 1)
+    end do
+    if (allocated(coarse)) col = coarse(col)
+    call move_alloc(rowptr, p%rowptr)
+    call move_alloc(col, p%col)
+    call move_alloc(val, p%val)
+  end subroutine renumber_prolongation
 
   !> 1/2 x^T a x - b^T x.
   real(dp) function quadratic(a, b, x) result(jx)
@@ -357,13 +458,12 @@ contains
     end do
   end subroutine complementarity_prediction
 
-  !> The vertex patches of the free side unknowns: for every node, the free unknowns of
-  !> the edges at it (both ends of each edge); the patches in the order of the nodes along
-  !> a Z-order (Morton) curve, so that consecutive patches share unknowns and matrix rows
-  !> (cache locality of the sweeps).
-  subroutine vertex_patches(mesh, free, ptr, idx, st)
+  !> The vertex patches of the side unknowns: for every node, the unknowns of the edges at
+  !> it (both ends of each edge); the patches in the order of the nodes along a Z-order
+  !> (Morton) curve, so that consecutive patches share unknowns and matrix rows (cache
+  !> locality of the sweeps).
+  subroutine vertex_patches(mesh, ptr, idx, st)
     type(mesh_t), intent(in) :: mesh
-    logical, intent(in) :: free(:)
     integer, allocatable, intent(out) :: ptr(:), idx(:)
     type(status_t), intent(inout) :: st
     integer, allocatable :: fill(:), order(:), rank(:)
@@ -379,7 +479,7 @@ contains
     do e = 1, mesh%nedge
       do j = 1, 2
         p = rank(mesh%edge_nodes(j, e))
-        ptr(p + 1) = ptr(p + 1) + count(free(2 * e - 1:2 * e))
+        ptr(p + 1) = ptr(p + 1) + 2
       end do
     end do
     ptr(1) = 1
@@ -393,7 +493,6 @@ contains
       do j = 1, 2
         p = rank(mesh%edge_nodes(j, e))
         do i = 2 * e - 1, 2 * e
-          if (.not. free(i)) cycle
           idx(fill(p)) = i
           fill(p) = fill(p) + 1
         end do
