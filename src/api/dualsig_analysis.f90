@@ -97,6 +97,10 @@ module dualsig_analysis
   !> guaranteed bound, err^2 > (1 + exact_consistency_tol) est, refutes u_exact.  The margin
   !> covers the quadrature of err (u_exact is not a polynomial; est needs no margin).
   real(dp), parameter :: exact_consistency_tol = 1.0e-2_dp
+  !> Roundings allowed per term of the sums of the energy bounds (a term is a product of a
+  !> few factors summed over at most the points of one quadrature rule) in their rounding
+  !> allowance, widen_for_rounding.
+  integer, parameter :: rounding_ops_per_term = 64
   !> explain_small_p1_domain: a P1 domain of smaller diameter may fail for its scale.
   real(dp), parameter :: p1_small_domain = 1.0e-3_dp
   !> explain_small_p1_domain: a failure on triangles of aspect ratio (longest side^2 over
@@ -1357,6 +1361,7 @@ contains
     res%est_hypercircle = bounds%est_hypercircle
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
+    call widen_for_rounding(bounds%fu_abs, bounds%uu, bounds%nsum, res)
     call move_alloc(bounds%est_elem, res%est_elem)
     res%certified = res%load_unresolved == 0
     if (an%settings%adapt%enabled) call load_data_move(load, an%load_keep)   ! for the next step
@@ -1583,7 +1588,30 @@ contains
     res%est_hypercircle = bounds%est
     res%energy_lo = bounds%energy_lo
     res%energy_hi = bounds%energy_hi
+    call widen_for_rounding(bounds%fu_abs, bounds%uu, bounds%nsum, res)
     call move_alloc(bounds%est_elem, res%est_elem)
     if (an%settings%adapt%enabled .and. allocated(load%mean)) call load_data_move(load, an%load_keep)
   end subroutine dual_level_p2
+
+  !> The energy bracket widened by the rounding of its sums.  Each sum is summed per triangle
+  !> (at most m terms) and then over the ntri triangles: it is within (ntri + m) u sum |terms|
+  !> of the exact sum (u = epsilon/2, recursive summation), and each term within a few
+  !> dozen roundings of its value.  energy_lo = 2 (f, u~) - ||u~||_1^2 and energy_hi (F(q),
+  !> ||lambda||^2 or one of their sharper forms, built from these sums and est) move apart by
+  !>     delta = (nsum + rounding_ops_per_term) epsilon (2 fu_abs + uu + |energy_hi| + est_hypercircle),
+  !> nsum = ntri + m, fu_abs = sum |terms of (f, u~)|, uu = ||u~||_1^2 (the other sums have
+  !> terms of one sign, so their value is the sum of their absolute values).
+  !> Without it a solution that the mesh represents exactly (u = 1 for P1 with f = 1) gave
+  !> energy_hi below the energy by 3e-12 (seventh review, M1).  est is not widened: it is a
+  !> sum of nonnegative terms, exact to a relative n u.
+  pure subroutine widen_for_rounding(fu_abs, uu, nsum, res)
+    real(dp), intent(in) :: fu_abs, uu
+    integer, intent(in) :: nsum
+    type(level_result_t), intent(inout) :: res
+    real(dp) :: delta
+    delta = real(nsum + rounding_ops_per_term, dp) * epsilon(1.0_dp) * &
+            (2.0_dp * fu_abs + abs(uu) + abs(res%energy_hi) + abs(res%est_hypercircle))
+    res%energy_lo = res%energy_lo - delta
+    res%energy_hi = res%energy_hi + delta
+  end subroutine widen_for_rounding
 end module dualsig_analysis

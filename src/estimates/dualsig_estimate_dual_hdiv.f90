@@ -72,7 +72,7 @@ contains
     type(tri_points_t) :: tp
     type(rt1_geometry_t) :: g
     real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), dv(3), ue(3), gu(2), qq(2)
-    real(dp) :: e1, e2, r2, uq, dq, pf, fu, uu, hi, grad(2, 3), area, bary(3), centroid(2)
+    real(dp) :: e1, e2, r2, uq, dq, pf, fu, uu, hi, hi_t, grad(2, 3), area, bary(3), centroid(2)
     real(dp), allocatable :: pw_elem(:), b_elem(:)   ! S^2's terms, the boundary terms 2 (q.nu, u~), per triangle
     integer :: t, k
     allocate (bnd%est_elem(mesh%ntri), pw_elem(mesh%ntri), b_elem(mesh%ntri), stat=ist)
@@ -90,11 +90,12 @@ contains
       ue = u(mesh%tri(:, t))
       gu = matmul(grad, ue)
       e1 = 0.0_dp
+      hi_t = 0.0_dp
       do k = 1, prule%n
         call rt1_values(g, prule%bary(:, k), psi, dpsi)
         qq = matmul(psi, c)
         e1 = e1 + area * prule%w(k) * sum((qq - gu)**2)
-        hi = hi + area * prule%w(k) * sum(qq**2)
+        hi_t = hi_t + area * prule%w(k) * sum(qq**2)
       end do
       do k = 1, 3
         bary = 0.0_dp
@@ -104,17 +105,20 @@ contains
       end do
       ! Pi_1 f + div q - u~ and Pi_1 f + div q: linear, their squares exact with a degree-2 rule
       r2 = 0.0_dp
-      hi = hi + load%osc(t)**2
+      hi_t = hi_t + load%osc(t)**2
       call tri_points_set(g%xy, lrule, tp, [real(dp) ::])
       do k = 1, tp%n
         pf = load%mean(t) + dot_product(load%slope(:, t), tp%p(:, k) - centroid)
         uq = dot_product(tp%bary(:, k), ue)
         dq = dot_product(tp%bary(:, k), dv)
         r2 = r2 + tp%w(k) * (pf + dq - uq)**2
-        hi = hi + tp%w(k) * (pf + dq)**2
+        hi_t = hi_t + tp%w(k) * (pf + dq)**2
       end do
       e2 = load%osc(t)**2 + r2
+      hi = hi + hi_t
       fu = fu + load%mean(t) * area * sum(ue) / 3.0_dp + dot_product(gu, load%moment(:, t))
+      bnd%fu_abs = bnd%fu_abs + abs(load%mean(t) * area * sum(ue) / 3.0_dp) + sum(abs(gu * load%moment(:, t)))
+      bnd%nsum = max(bnd%nsum, mesh%ntri + prule%n + tp%n + 1)
       uu = uu + area * (sum(gu**2) + (sum(ue**2) + sum(ue)**2) / 12.0_dp)
       bnd%est_elem(t) = e1 + e2
       pw_elem(t) = (sqrt(e1) + load%diameter(t) / pi * load%osc(t))**2 + r2
@@ -123,6 +127,7 @@ contains
     bnd%est_elem = bnd%est_elem + b_elem
     bnd%est_hypercircle = sum(bnd%est_elem)
     bnd%energy_lo = 2.0_dp * fu - uu
+    bnd%uu = uu
     call take_sharper(bnd, pw_elem, b_elem, uu, hi)
   end subroutine dual_hdiv_bounds_load
 

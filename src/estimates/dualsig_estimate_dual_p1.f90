@@ -38,6 +38,12 @@ module dualsig_estimate_dual_p1
     real(dp) :: energy_hi = 0.0_dp       !! F(q), or a sharper bound (hdiv)
     real(dp) :: boundary_term = 0.0_dp   !! 2 int_Gamma (q.nu) u~ ds (part of est)
     real(dp), allocatable :: est_elem(:) !! (ntri) element contributions, sum = est
+    !> for the rounding allowance of the energy bounds (dualsig_analysis): the sum of the
+    !> absolute values of the terms of (f, u~), ||u~||_1^2, and nsum = the triangles plus the
+    !> most terms of one triangle (every sum is summed per triangle first)
+    real(dp) :: fu_abs = 0.0_dp
+    real(dp) :: uu = 0.0_dp
+    integer :: nsum = 0
   end type dual_p1_bounds_t
 
 contains
@@ -55,7 +61,7 @@ contains
     integer :: ist
     real(dp), intent(in), optional :: breaks(:)   !! lines x = const where f has a kink
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), divq, qe(2, 3), ue(3), fq, uq, qq(2)
-    real(dp) :: e1, e2, fu, uu
+    real(dp) :: e1, e2, fu, uu, s(4)
     type(tri_points_t) :: tp
     integer :: t, k
     allocate (bnd%est_elem(mesh%ntri), stat=ist)
@@ -73,6 +79,7 @@ contains
       divq = sum(grad * qe)
       e1 = 0.0_dp
       e2 = 0.0_dp
+      s = 0.0_dp                       ! this triangle's parts of energy_hi, fu, fu_abs, uu
       call tri_points_set(xy, rule, tp, breaks)
       do k = 1, tp%n
         fq = f%value(tp%p(1, k), tp%p(2, k))
@@ -80,16 +87,23 @@ contains
         qq = matmul(qe, tp%bary(:, k))
         e1 = e1 + tp%w(k) * sum((qq - gu)**2)
         e2 = e2 + tp%w(k) * (fq + divq - uq)**2
-        bnd%energy_hi = bnd%energy_hi + tp%w(k) * (sum(qq**2) + (fq + divq)**2)
-        fu = fu + tp%w(k) * fq * uq
-        uu = uu + tp%w(k) * (uq**2 + sum(gu**2))
+        s(1) = s(1) + tp%w(k) * (sum(qq**2) + (fq + divq)**2)
+        s(2) = s(2) + tp%w(k) * fq * uq
+        s(3) = s(3) + abs(tp%w(k) * fq * uq)
+        s(4) = s(4) + tp%w(k) * (uq**2 + sum(gu**2))
       end do
+      bnd%energy_hi = bnd%energy_hi + s(1)
+      fu = fu + s(2)
+      bnd%fu_abs = bnd%fu_abs + s(3)
+      uu = uu + s(4)
+      bnd%nsum = max(bnd%nsum, mesh%ntri + tp%n)
       bnd%est_elem(t) = e1 + e2
     end do
     call add_boundary_terms(mesh, u, q, bnd)
     bnd%est = sum(bnd%est_elem)
     bnd%est_hypercircle = bnd%est
     bnd%energy_lo = 2.0_dp * fu - uu
+    bnd%uu = uu
   end subroutine dual_p1_bounds
 
   !> The bounds of (6.13) and (6.14) as dual_p1_bounds, with f entering only through its
@@ -149,12 +163,15 @@ contains
       e2 = e2 + load%osc(t)**2
       bnd%energy_hi = bnd%energy_hi + qsq + load%osc(t)**2 + hsq
       fu = fu + load%mean(t) * area * sum(ue) / 3.0_dp + dot_product(gu, load%moment(:, t))
+      bnd%fu_abs = bnd%fu_abs + abs(load%mean(t) * area * sum(ue) / 3.0_dp) + sum(abs(gu * load%moment(:, t)))
+      bnd%nsum = max(bnd%nsum, mesh%ntri + tp%n)
       bnd%est_elem(t) = e1 + e2
     end do
     call add_boundary_terms(mesh, u, q, bnd)
     bnd%est = sum(bnd%est_elem)
     bnd%est_hypercircle = bnd%est
     bnd%energy_lo = 2.0_dp * fu - uu
+    bnd%uu = uu
   end subroutine dual_p1_bounds_load
 
   !> The boundary term of (6.13): 2 int_e (q.nu) u~ ds on every boundary edge, with both

@@ -39,6 +39,12 @@ module dualsig_estimate_dual_p2
     real(dp) :: boundary_term = 0.0_dp   !! 2 int_{Gamma_a} (lambda^h . nu) u~ ds
     real(dp), allocatable :: est_elem(:) !! (ntri) element contributions, sum = est
     real(dp) :: oscillation = 0.0_dp     !! (sum_T ((h_T/pi) ||f - Pi_1 f||_T)^2)^(1/2) (load version)
+    !> for the rounding allowance of the energy bounds (dualsig_analysis): the sum of the
+    !> absolute values of the terms of (f, u~), ||u~||_1^2, and nsum = the triangles plus the
+    !> most terms of one triangle (every sum is summed per triangle first)
+    real(dp) :: fu_abs = 0.0_dp
+    real(dp) :: uu = 0.0_dp
+    integer :: nsum = 0
   end type dual_p2_bounds_t
 
 contains
@@ -56,7 +62,7 @@ contains
     type(status_t), intent(out) :: st
     integer :: ist
     real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), e1, fu, uu, flux(2), ub(2), len
-    real(dp) :: bary(3)
+    real(dp) :: bary(3), fterm, s(3)
     real(dp), allocatable :: lam(:,:)
     type(tri_points_t) :: tp
     integer :: t, k, j, i, lv
@@ -71,6 +77,7 @@ contains
       ue = u(mesh%tri(:, t))
       gu = matmul(grad, ue)
       e1 = 0.0_dp
+      s = 0.0_dp                     ! this triangle's parts of energy_hi, fu, fu_abs
       call tri_points_set(xy, rule, tp, field%pf%breaks(1:field%pf%nbreaks))
       if (size(lam, 2) < tp%n) then
         deallocate (lam)
@@ -79,9 +86,15 @@ contains
       call dual_p2_lambda_points(field, mesh, f, t, tp, lam(:, 1:tp%n))
       do k = 1, tp%n
         e1 = e1 + tp%w(k) * sum((lam(:, k) - gu)**2)
-        bnd%energy_hi = bnd%energy_hi + tp%w(k) * sum(lam(:, k)**2)
-        fu = fu + tp%w(k) * f%value(tp%p(1, k), tp%p(2, k)) * dot_product(tp%bary(:, k), ue)
+        fterm = tp%w(k) * f%value(tp%p(1, k), tp%p(2, k)) * dot_product(tp%bary(:, k), ue)
+        s(1) = s(1) + tp%w(k) * sum(lam(:, k)**2)
+        s(2) = s(2) + fterm
+        s(3) = s(3) + abs(fterm)
       end do
+      bnd%energy_hi = bnd%energy_hi + s(1)
+      fu = fu + s(2)
+      bnd%fu_abs = bnd%fu_abs + s(3)
+      bnd%nsum = max(bnd%nsum, mesh%ntri + tp%n)
       uu = uu + area * sum(gu**2)
       bnd%est_elem(t) = e1
     end do
@@ -105,6 +118,7 @@ contains
     end do
     bnd%est = sum(bnd%est_elem)
     bnd%energy_lo = 2.0_dp * fu - uu
+    bnd%uu = uu
   end subroutine dual_p2_bounds
 
   !> The bounds for a polynomial lambda^h (div lambda^h = -Pi_1 f on every triangle,
@@ -133,7 +147,7 @@ contains
     type(dual_p2_bounds_t), intent(out) :: bnd
     type(status_t), intent(out) :: st
     integer :: ist
-    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, lsq, osc_t, c(6, 6), beta(6)
+    real(dp) :: xy(2, 3), grad(2, 3), area, gu(2), ue(3), lam(2), e1, fu, uu, lsq, lsq_t, osc_t, c(6, 6), beta(6)
     type(tri_rule_t) :: rule
     type(tri_points_t) :: tp
     integer :: t, k
@@ -149,6 +163,7 @@ contains
       ue = u(mesh%tri(:, t))
       gu = matmul(grad, ue)
       e1 = 0.0_dp
+      lsq_t = 0.0_dp
       call tri_points_set(xy, rule, tp, [real(dp) ::])
       c = equilibrium_c_of(xy)
       beta = field%beta(:, t) + field%beta_f(:, t)
@@ -156,18 +171,22 @@ contains
         lam = equilibrium_field(c, beta, tp%bary(:, k)) + &
               bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
         e1 = e1 + tp%w(k) * sum((lam - gu)**2)
-        lsq = lsq + tp%w(k) * sum(lam**2)
+        lsq_t = lsq_t + tp%w(k) * sum(lam**2)
       end do
+      lsq = lsq + lsq_t
       osc_t = load%diameter(t) / pi * load%osc(t)
       bnd%oscillation = bnd%oscillation + osc_t**2
       bnd%est_elem(t) = (sqrt(e1) + osc_t)**2
       uu = uu + area * sum(gu**2)
       fu = fu + load%mean(t) * area * sum(ue) / 3.0_dp + dot_product(gu, load%moment(:, t))
+      bnd%fu_abs = bnd%fu_abs + abs(load%mean(t) * area * sum(ue) / 3.0_dp) + sum(abs(gu * load%moment(:, t)))
+      bnd%nsum = max(bnd%nsum, mesh%ntri + tp%n)
     end do
     bnd%oscillation = sqrt(bnd%oscillation)
     call add_gamma_a_terms(mesh, u, field, is_gamma_a, bnd)
     bnd%est = sum(bnd%est_elem)
     bnd%energy_lo = 2.0_dp * fu - uu
+    bnd%uu = uu
     bnd%energy_hi = (sqrt(lsq) + bnd%oscillation)**2
   end subroutine dual_p2_bounds_load
 
