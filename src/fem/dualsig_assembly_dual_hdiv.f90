@@ -23,7 +23,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t
+  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, sort_row_by_column
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside, rt1_reference_t, rt1_reference
   use dualsig_status, only: status_t
@@ -335,8 +335,8 @@ contains
     real(dp), intent(inout), optional :: xf(:)
     type(rt1_geometry_t) :: gc
     real(dp) :: psi(2, rt1_nbasis, 6), dpsi(rt1_nbasis), nu(2), w(rt1_nbasis), sgn(rt1_nside)
-    real(dp) :: v(rt1_nside), c(rt1_nbasis)
-    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), i, row, ist, ch, ip, q
+    real(dp) :: v(rt1_nside), c(rt1_nbasis), pos(rt1_nside)
+    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), sorted(rt1_nside), i, row, ist, ch, ip, q
     p%m = 2 * fine%nedge
     p%n = 2 * coarse%nedge
     allocate (p%rowptr(p%m + 1), p%col(rt1_nside * p%m), p%val(rt1_nside * p%m), stat=ist)
@@ -346,7 +346,11 @@ contains
       ! fine edge inside it), its unknowns in increasing order (the columns of its rows)
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
       call hdiv_side_dofs(coarse, tc, cdofs, sgn)
-      order = sorted_order(cdofs)
+      ! the permutation that sorts cdofs (the positions carried along as exact small reals)
+      sorted = cdofs
+      pos = [(real(i, dp), i = 1, rt1_nside)]
+      call sort_row_by_column(sorted, pos)
+      order = nint(pos)
       do ip = 1, 6
         call rt1_values(gc, child_point(:, ip), psi(:, :, ip), dpsi)
       end do
@@ -375,23 +379,6 @@ contains
     end do
     call drop_exact_zeros(p)
   end subroutine hdiv_prolongation_matrix
-
-  !> The permutation that sorts the (distinct) integers a increasingly (insertion sort).
-  pure function sorted_order(a) result(order)
-    integer, intent(in) :: a(:)
-    integer :: order(size(a)), i, j, o
-    order = [(i, i = 1, size(a))]
-    do i = 2, size(a)
-      o = order(i)
-      j = i - 1
-      do while (j >= 1)
-        if (a(order(j)) <= a(o)) exit
-        order(j + 1) = order(j)
-        j = j - 1
-      end do
-      order(j + 1) = o
-    end do
-  end function sorted_order
 
   !> Compact p (rt1_nside entries per row, stored at 6 (row-1) + 1 ..) to its entries above
   !> prolongation_zero times the largest of their row; sets p%rowptr.
