@@ -13,12 +13,15 @@
 #        runs; unset: the default)
 #        ALGEBRAIC_SHARE=s bench/adapt_work_precision.sh   (&adapt algebraic_share of both
 #        adaptive runs, e.g. 0 for exact solves on every step; unset: the default)
+#        CASES='name ...' bench/adapt_work_precision.sh   (only these cases of
+#        bench/adapt_cases.sh; the summary covers every case with tables in out/wp)
 set -euo pipefail
 LMAX=${1:-9}
 mkdir -p out/wp
 source "$(dirname "$0")/adapt_cases.sh"
 for c in "${cases[@]}"; do
   IFS='|' read -r name scene gu ga mesh tol ndof <<<"$c"
+  if [ -n "${CASES:-}" ] && [[ " $CASES " != *" $name "* ]]; then continue; fi
   out=out/wp/${name}_uniform.csv
   echo "level,ndof,est,energy_lo,rel_cert,seconds" > "$out"
   for L in $(seq 1 "$LMAX"); do
