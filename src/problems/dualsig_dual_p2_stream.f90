@@ -181,8 +181,8 @@ contains
     call stream_gamma_a_rows(mesh, is_gamma_a, rows, st)
     if (.not. is_ok(st)) return
     res%nrows = 2 * rows%n
-    allocate (f(n2), psi(n2), r(n2), mu(2, rows%n), active(2, rows%n), next(2, rows%n), stat=ist)
-    if (alloc_failed(ist, st, 'the stream function', 3_i8 * n2 + 4_i8 * rows%n, BYTES_REAL)) return
+    allocate (f(n2), psi(n2), mu(2, rows%n), active(2, rows%n), next(2, rows%n), stat=ist)
+    if (alloc_failed(ist, st, 'the stream function', 2_i8 * n2 + 4_i8 * rows%n, BYTES_REAL)) return
     call stream_flux_load(mesh, bx, f)
     active = .false.
     if (present(u_primal)) then
@@ -209,9 +209,12 @@ contains
       call solve_with_active(mesh, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
       if (.not. is_ok(st)) return
       call stream_fluxes(mesh, psi, x)
+      allocate (r(n2), stat=ist)                 ! not held during the solves (their memory is the peak)
+      if (alloc_failed(ist, st, 'the stream residual', int(n2, i8), BYTES_REAL)) return
       call stream_apply_stiffness(mesh, psi, r)
       r = r - f
       call mu_of_chains(rows, active, r, mu)
+      deallocate (r)
       if (settings%est_tol > 0.0_dp) then
         call next_active(rows, active, mu, x, release_tol_share, violation_tol_share, next)
       else
@@ -340,7 +343,7 @@ contains
   subroutine p1_aggregated_hierarchy(mesh, kz, pz, h, built)
     type(mesh_t), intent(in) :: mesh
     type(csr_t), intent(in) :: kz
-    type(rect_t), intent(in) :: pz
+    type(rect_t), intent(inout) :: pz              !! moved into h (mg_extend_algebraic)
     type(mg_hierarchy_t), intent(inout) :: h
     logical, intent(out) :: built
     type(rect_t) :: pzt

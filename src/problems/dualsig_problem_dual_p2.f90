@@ -210,11 +210,13 @@ contains
       return
     end select
     res%seconds_loads = lap(t0)
-    call equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd, st)
-    if (.not. is_ok(st)) return
-    allocate (field%beta(6, mesh%ntri), x(2 * mesh%nedge), stat=ist)
-    if (alloc_failed(ist, st, 'the equilibrium fluxes', 6 * mesh%ntri + 2 * mesh%nedge, BYTES_REAL)) return
-    res%nconstraints = mesh%ntri + count(on_gamma_a)
+    allocate (x(2 * mesh%nedge), stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium fluxes', 2 * mesh%nedge, BYTES_REAL)) return
+    if (trim(settings%method) /= 'multigrid') then   ! 'multigrid': after the solve (stream_method)
+      call equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd, st)
+      if (.not. is_ok(st)) return
+      res%nconstraints = mesh%ntri + count(on_gamma_a)
+    end if
 
     select case (trim(settings%method))
     case ('augmented')
@@ -250,8 +252,14 @@ contains
       res%nactive = ares%nactive
       res%residual = ares%kkt_residual
     case ('multigrid')
-      call stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
+      call stream_method(mesh, map, d, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
       if (.not. is_ok(st)) return
+      call equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd, st_eq)   ! (st: the solve's warning)
+      if (.not. is_ok(st_eq)) then
+        st = st_eq
+        return
+      end if
+      res%nconstraints = mesh%ntri + count(on_gamma_a)
       where (on_gamma_a) x = max(x, bnd)
     case ('uzawa')
       call blocks%factor(ae, st)
@@ -285,6 +293,8 @@ contains
     end select
     ! the solver's defect, then exact equilibration on Gamma_u and interior edges (own status:
     ! st may hold the solver's warning)
+    allocate (field%beta(6, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the equilibrium fluxes', 6 * mesh%ntri, BYTES_REAL)) return
     call equilibrium_to_local(map, x, field%beta)
     res%defect_solver = divergence_defect(d, field%beta)
     call equilibrate_divergence(mesh, map, d, is_gamma_a, x, st_eq)
@@ -298,11 +308,16 @@ contains
   end subroutine dual_p2_solve
 
   !> method 'multigrid': the dual by its stream function (dualsig_dual_p2_stream), for the
-  !> polynomial lambda^f (zero flux on Gamma_a); x: the edge-end fluxes.
-  subroutine stream_method(mesh, map, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
+  !> polynomial lambda^f (zero flux on Gamma_a); x: the edge-end fluxes.  The per-triangle
+  !> arrays the stream function does not need are not held while it runs (its solve is the
+  !> peak of an adaptive step's memory): the element loads be are freed once summed into
+  !> the edge loads, the map and the divergence rows d are freed and rebuilt after the
+  !> solve (O(ntri), a few per cent of its time).
+  subroutine stream_method(mesh, map, d, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
     type(mesh_t), intent(in) :: mesh
-    type(equilibrium_map_t), intent(in) :: map
-    real(dp), intent(in) :: be(:,:)
+    type(equilibrium_map_t), intent(inout) :: map
+    real(dp), allocatable, intent(inout) :: d(:,:)
+    real(dp), allocatable, intent(inout) :: be(:,:)
     logical, intent(in) :: is_gamma_a(:)
     type(dual_p2_settings_t), intent(in) :: settings
     real(dp), intent(out) :: x(:)
@@ -314,6 +329,7 @@ contains
     integer, allocatable, intent(inout), optional :: active_set(:,:)
     type(stream_settings_t) :: sset
     type(stream_result_t) :: sres
+    type(status_t) :: st_rebuild
     real(dp), allocatable :: bx(:)
     integer :: ist
     if (trim(settings%particular) /= 'polynomial') then
@@ -324,9 +340,17 @@ contains
     allocate (bx(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the equilibrium load', 2 * mesh%nedge, BYTES_REAL)) return
     call equilibrium_to_global(map, be, bx)
+    deallocate (be, d, map%dof, map%sgn)
     sset%est_tol = settings%est_tol
     call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal, psi, active_set)
     if (.not. is_ok(st)) return
+    deallocate (bx)
+    call equilibrium_map(mesh, map, st_rebuild)      ! (st keeps the solve's warning, if any)
+    if (is_ok(st_rebuild)) call equilibrium_div_coefficients(mesh, d, st_rebuild)
+    if (.not. is_ok(st_rebuild)) then
+      st = st_rebuild
+      return
+    end if
     res%est_gap = sres%est_gap
     res%iterations = sres%steps
     res%inner = 'multigrid'

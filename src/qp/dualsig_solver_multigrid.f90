@@ -342,11 +342,12 @@ contains
   !> src): e.g. P1 -> P2 of the finest mesh composed with a change of basis on the P2
   !> unknowns (the stream function of the P2 dual, dualsig_dual_p2_stream).  The aggregate
   !> of a fine node (restrict_bounds) is the coarse node of its largest weight.  src is not
-  !> changed; dst's coarse operators are built by its first solve.
+  !> changed; p is moved into dst (empty on return: the finest prolongation is not held
+  !> twice); dst's coarse operators are built by its first solve.
   !> st: DS_ERR_INPUT (src without a grid, p of the wrong width), DS_ERR_MEMORY.
   subroutine mg_extend_algebraic(src, p, dst, st)
     type(mg_hierarchy_t), intent(in) :: src
-    type(rect_t), intent(in) :: p
+    type(rect_t), intent(inout) :: p
     type(mg_hierarchy_t), intent(inout) :: dst
     type(status_t), intent(out) :: st
     integer :: l, ierr
@@ -372,7 +373,7 @@ contains
       end associate
       if (.not. is_ok(st)) return
     end do
-    dst%transfer(dst%nlevel)%p = p
+    call move_rect(p, dst%transfer(dst%nlevel)%p)
     call general_transfer(dst%transfer(dst%nlevel), st)
   end subroutine mg_extend_algebraic
 
