@@ -65,7 +65,7 @@ module dualsig_analysis
   public :: dual_spaces, mg_auto_min_unknowns
   public :: analysis_progress
   public :: adapt_settings_t, analysis_next_step, analysis_adapt_stop, adapt_stop_text, certified_rel_error
-  public :: analysis_aim_growth, adapt_aim_growth, adapt_aim_margin, adapt_aim_rate_max
+  public :: analysis_aim_growth, adapt_aim_growth, adapt_aim_margin, adapt_aim_rate_max, analysis_limit_growth
   public :: adapt_min_growth_default, adapt_min_growth_max
   public :: ADAPT_GOING, ADAPT_STOP_TOL, ADAPT_STOP_NDOF, ADAPT_STOP_SECONDS, ADAPT_STOP_STEPS, adapt_max_steps
 
@@ -352,6 +352,9 @@ module dualsig_analysis
     real(dp) :: last_rel = huge(1.0_dp), prev_rel = huge(1.0_dp)
     real(dp) :: last_est = 0.0_dp           !! est of the last level / step (0: none)
     real(dp) :: new_per_mark = 0.0_dp       !! new nodes per marked triangle of the last bisection (0: none yet)
+    !> the largest growth of the unknowns the next adaptive step may take (0: no limit), set
+    !> by analysis_limit_growth (the driver's memory check) for that step only
+    real(dp) :: growth_limit = 0.0_dp
     type(tri_rule_t) :: load_rule, exact_rule, bound_rule_p1, bound_rule_p2
     type(mg_hierarchy_t) :: mg              !! method 'multigrid': the grids of the uniform refinements so far
     !> adaptive steps: the last step's load data, and per triangle of the refined mesh the
@@ -639,7 +642,8 @@ contains
   !> - a step that aims at tol (analysis_aim_growth: the growth g the observed rate asks
   !>   for, adapt_aim_margin included) adds at least (g / adapt_aim_margin - 1) ndof and
   !>   at most (g - 1) ndof new nodes;
-  !> - any other step at least (min_growth - 1) ndof.
+  !> - any other step at least (min_growth - 1) ndof;
+  !> - a step limited by analysis_limit_growth (memory) at most (limit - 1) ndof.
   !> The marks are Doerfler's set cut to, or extended by, the largest indicators; their
   !> number starts from the last bisection's new nodes per mark and is corrected in
   !> proportion to the new nodes obtained, the bisection redone (adapt_aim_tries times;
@@ -664,6 +668,11 @@ contains
       max_new = max(1, int((res%aim_growth - 1.0_dp) * ndof))
       min_new = min(max_new, ceiling((res%aim_growth / adapt_aim_margin - 1.0_dp) * ndof))
     end if
+    if (an%growth_limit > 1.0_dp) then               ! the memory's limit (analysis_limit_growth)
+      max_new = min(max_new, max(1, int((an%growth_limit - 1.0_dp) * ndof)))
+      min_new = min(min_new, max_new)
+    end if
+    an%growth_limit = 0.0_dp
     nmarkable = count(eta2 > 0.0_dp)
     cap = huge(1)
     least = 0
@@ -699,6 +708,15 @@ contains
       end if
     end do
   end subroutine mark_and_refine
+
+  !> Limit the next adaptive step (analysis_next_step) to at most `growth` times the
+  !> unknowns of the last step (growth > 1; the memory a larger step would need is not
+  !> there): Doerfler's set, or the aim at tol, is cut to that many new nodes.
+  subroutine analysis_limit_growth(an, growth)
+    type(analysis_t), intent(inout) :: an
+    real(dp), intent(in) :: growth
+    an%growth_limit = growth
+  end subroutine analysis_limit_growth
 
   !> The growth ndof_next / ndof of the unknowns with which the next adaptive step aims at
   !> the settings' tol (adapt_aim_growth of the last two steps); 0: no aim (no tol, fewer

@@ -32,7 +32,7 @@ module dualsig_driver
                               analysis_start, analysis_next_level, exact_degree, analysis_next_step, &
                               analysis_adapt_stop, adapt_stop_text, certified_rel_error, ADAPT_GOING, &
                               adapt_max_steps, mg_auto_min_unknowns, analysis_free, analysis_aim_growth, &
-                              adapt_aim_margin, adapt_aim_rate_max
+                              adapt_aim_margin, adapt_aim_rate_max, analysis_limit_growth
   use dualsig_io_config, only: run_config_t, read_config_file, config_echo, config_text
   use dualsig_user_problem, only: user_problem_build, user_problem_description
   use dualsig_io_table, only: table_t, table_init, table_new_row, table_set, table_value, &
@@ -79,6 +79,12 @@ module dualsig_driver
   !> where the run had measured 1306 bytes a triangle (about 18.4 GB).
   integer(int64), parameter :: memory_measured_min_tri = 100000_int64
   real(dp), parameter :: memory_measured_margin = 1.2_dp
+  !> An adaptive step whose estimate exceeds the memory is limited to the growth of the
+  !> unknowns that fits (check_level_memory) when that is at least adapt_memory_min_growth
+  !> (a smaller step would gain little: at rate 0.5 a growth of 1.2 lowers the error by
+  !> 9 %); the fitting growth is searched downwards by memory_growth_shrink.
+  real(dp), parameter :: adapt_memory_min_growth = 1.2_dp
+  real(dp), parameter :: memory_growth_shrink = 0.98_dp
 
   !> Columns of the error table ('#' marks integer columns).
   character(len=16), parameter :: primal_columns(10) = [character(len=16) :: &
@@ -291,7 +297,7 @@ contains
     done = 0
     reason = ADAPT_GOING
     do level = 1, max_rows(cfg)
-      call check_level_memory(run, an, level, st)
+      call check_level_memory(run, an, level, st, unit)
       if (.not. is_ok(st)) exit
       if (run%adaptive) then
         call analysis_next_step(an, res, st)
@@ -437,14 +443,19 @@ contains
   end subroutine show_computed_columns
 
   !> Refuse level `level` when its estimated memory (level_memory_gb) exceeds &run
-  !> max_memory_gb, or by default the machine's available memory.
-  subroutine check_level_memory(run, an, level, st)
+  !> max_memory_gb, or by default the machine's available memory.  An adaptive step that
+  !> does not fit but would at a growth of at least adapt_memory_min_growth is limited to
+  !> the growth that fits (analysis_limit_growth; a note on unit says so) instead: the run
+  !> then goes as far as the memory allows, and stops for memory at the next step that
+  !> cannot grow by that much.
+  subroutine check_level_memory(run, an, level, st, unit)
     type(run_t), intent(in) :: run
-    type(analysis_t), intent(in) :: an
+    type(analysis_t), intent(inout) :: an
     integer, intent(in) :: level
     type(status_t), intent(out) :: st
+    integer, intent(in) :: unit
     real(dp), parameter :: adapt_growth_margin = 1.1_dp
-    real(dp) :: need, limit, growth, per_tri
+    real(dp) :: need, limit, growth, per_tri, fit
     integer(int64) :: ntri
     character(len=:), allocatable :: what, basis
     if (level == 1) then
@@ -464,6 +475,7 @@ contains
     end if
     need = level_memory_gb(run%problem%kind, run%cfg%dual_enabled, run%cfg%method, ntri, stream_dual(run, an))
     basis = ''
+    per_tri = 0.0_dp
     if (level > 1 .and. an%mesh%ntri >= memory_measured_min_tri .and. peak_memory_mb() > 0.0_dp) then
       per_tri = peak_memory_mb() * mib_bytes / real(an%mesh%ntri, dp)
       need = measured_level_memory_gb(per_tri, int(an%mesh%ntri, int64), ntri, stream_dual(run, an))
@@ -479,6 +491,16 @@ contains
              rtoa(limit) // ' GB'
     end if
     if (need <= limit) return
+    if (run%adaptive .and. level > 1) then
+      fit = memory_fitting_growth(run, an, per_tri, growth, need, limit)
+      if (fit >= adapt_memory_min_growth) then
+        call analysis_limit_growth(an, fit)
+        write (unit, '(a)') 'note: ' // run%where // ': step ' // itoa(level) // ': ' // i8toa(ntri) // &
+          ' triangles would need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
+          '; this step refines to at most ' // rtoa(fit) // ' times the unknowns instead'
+        return
+      end if
+    end if
     if (run%adaptive) then
       call set_error(st, DS_ERR_INPUT, 'step ' // itoa(level) // ': ' // i8toa(ntri) // &
         ' triangles need an estimated ' // rtoa(need) // ' GB' // basis // ', more than ' // what // &
@@ -489,6 +511,33 @@ contains
         ' (expected fewer &mesh levels, or a larger &run max_memory_gb)')
     end if
   end subroutine check_level_memory
+
+  !> The largest growth of an adaptive step (at most `growth`, in steps of
+  !> memory_growth_shrink) whose estimated memory, as check_level_memory estimates it
+  !> (per_tri > 0: this run's measured peak per triangle, else level_memory_gb), is within
+  !> limit GB; 1 when none above adapt_memory_min_growth is.
+  function memory_fitting_growth(run, an, per_tri, growth, need, limit) result(fit)
+    type(run_t), intent(in) :: run
+    type(analysis_t), intent(in) :: an
+    real(dp), intent(in) :: per_tri, growth, need, limit
+    real(dp) :: fit, est
+    integer(int64) :: ntri
+    fit = growth * limit / need                       ! exact for a linear estimate
+    do while (fit >= adapt_memory_min_growth)
+      ntri = int(fit * real(an%mesh%ntri, dp), int64)
+      if (per_tri > 0.0_dp) then
+        est = measured_level_memory_gb(per_tri, int(an%mesh%ntri, int64), ntri, stream_dual(run, an))
+      else
+        est = level_memory_gb(run%problem%kind, run%cfg%dual_enabled, run%cfg%method, ntri, stream_dual(run, an))
+      end if
+      if (est <= limit) then
+        fit = real(floor(fit * 1000.0_dp), dp) / 1000.0_dp   ! (printed with three decimals)
+        return
+      end if
+      fit = fit * memory_growth_shrink
+    end do
+    fit = 1.0_dp
+  end function memory_fitting_growth
 
   !> The memory (GB) a level may use: max_memory_gb when it is set (> 0), else the machine's
   !> available memory (available_gb, MemAvailable; <= 0: unknown, then the result is <= 0,
