@@ -44,7 +44,8 @@ module dualsig_dual_p2_stream
                             csr_add_block
   use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_product
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, multigrid_solve, mg_clear, &
-                                      mg_build_algebraic, mg_extend_algebraic, mg_finest_size
+                                      mg_build_algebraic, mg_extend_algebraic, mg_finest_size, &
+                                      mg_extend_algebraic_take
   use dualsig_qp_types, only: BOUND_FREE
   use dualsig_status, only: status_t, set_error, set_warning, is_ok, is_warning, DS_ERR_INPUT, DS_ERR_NUMERIC, &
                             DS_WARN_NOT_CONVERGED
@@ -354,8 +355,11 @@ contains
     if (pz%n /= mesh%nnode) return
     call amg_transpose(pz, pzt, st)
     if (is_ok(st)) call amg_galerkin_product(pz, pzt, kz, kc, st)
+    pzt = rect_t()                                 ! freed (general_transfer makes it again)
     if (is_ok(st)) call mg_build_algebraic(h1, kc, st, mesh%xy)
-    if (is_ok(st)) call mg_extend_algebraic(h1, pz, h, st)
+    ! kc and the aggregation's coarse operators become h's: its solve (with kz) does not
+    ! recompute them
+    if (is_ok(st)) call mg_extend_algebraic_take(h1, pz, h, st, kc)
     call mg_clear(h1)
     built = is_ok(st)
     if (.not. built) call mg_clear(h)

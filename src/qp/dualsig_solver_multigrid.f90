@@ -45,7 +45,8 @@
 !> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
-  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec, csr_set_row_pattern
+  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec, rect_matvec_t, &
+                            csr_set_row_pattern
   use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_product, amg_galerkin_values, &
                                      amg_sweep_order, &
                                      amg_coarsest_max
@@ -62,6 +63,7 @@ module dualsig_solver_multigrid
 
   public :: mg_hierarchy_t, mg_settings_t, mg_result_t
   public :: mg_reset, mg_add_level, mg_clear, multigrid_solve, mg_memory_bytes, mg_build_algebraic, mg_extend_algebraic, &
+            mg_extend_algebraic_take, &
             mg_finest_size
 
   !> Most grids of an algebraic hierarchy (coarsening by ~9 per grid in 2D: never reached).
@@ -377,6 +379,80 @@ contains
     call general_transfer(dst%transfer(dst%nlevel), st)
   end subroutine mg_extend_algebraic
 
+  !> mg_extend_algebraic for a src that is not needed afterwards (src emptied): its
+  !> prolongations are moved into dst instead of copied, and src's transposes are freed
+  !> before dst's are made, so the two are never held at once.  a_src (optional): the
+  !> operator of src's finest grid, e.g. p^T A p for the matrix A of dst's first solve; with
+  !> it, src's coarse operators (built by mg_build_algebraic from a_src) and a_src itself
+  !> are moved into dst as its coarse operators, which that solve then takes instead of
+  !> recomputing every Galerkin product (values_fresh: identical values, since they are the
+  !> same products of the same matrices).  st: as mg_extend_algebraic.
+  subroutine mg_extend_algebraic_take(src, p, dst, st, a_src)
+    type(mg_hierarchy_t), intent(inout) :: src
+    type(rect_t), intent(inout) :: p
+    type(mg_hierarchy_t), intent(inout) :: dst
+    type(status_t), intent(out) :: st
+    type(csr_t), intent(inout), optional :: a_src
+    integer :: l, ierr
+    logical :: ops
+    if (src%nlevel < 1 .or. p%n /= finest_size(src) .or. .not. all(src%transfer(2:src%nlevel)%algebraic)) then
+      call mg_extend_algebraic(src, p, dst, st)       ! (refusal, or red transfers: made anew)
+      call mg_clear(src)
+      return
+    end if
+    call mg_clear(dst)
+    ops = present(a_src) .and. allocated(src%grid)
+    if (ops) ops = size(src%grid) == src%nlevel - 1 .and. a_src%n == p%n
+    allocate (dst%transfer(src%nlevel + 1), stat=ierr)   ! small: descriptors
+    if (ierr == 0 .and. ops) allocate (dst%grid(src%nlevel), stat=ierr)
+    if (ierr /= 0) then
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the hierarchy')
+      return
+    end if
+    dst%nlevel = src%nlevel + 1
+    dst%n1 = src%n1
+    do l = 2, src%nlevel
+      call move_rect(src%transfer(l)%p, dst%transfer(l)%p)
+    end do
+    if (ops) then
+      do l = 1, src%nlevel - 1
+        call move_grid(src%grid(l), dst%grid(l))
+      end do
+      call move_csr(a_src, dst%grid(src%nlevel)%a)
+      associate (g => dst%grid(src%nlevel))
+        allocate (g%x(g%a%n), g%b(g%a%n), g%r(g%a%n), stat=ierr)
+      end associate
+      if (alloc_failed(ierr, st, 'the vectors of a coarse grid', 3_i8 * p%n, BYTES_REAL)) return
+    end if
+    call mg_clear(src)                                ! its transposes, before new ones
+    call move_rect(p, dst%transfer(dst%nlevel)%p)
+    do l = 2, dst%nlevel
+      call general_transfer(dst%transfer(l), st)
+      if (.not. is_ok(st)) return
+    end do
+    dst%values_fresh = ops
+  end subroutine mg_extend_algebraic_take
+
+  !> gb = ga, ga emptied (no copy of the arrays).
+  subroutine move_grid(ga, gb)
+    type(mg_grid_t), intent(inout) :: ga, gb
+    call move_csr(ga%a, gb%a)
+    if (allocated(ga%x)) call move_alloc(ga%x, gb%x)
+    if (allocated(ga%b)) call move_alloc(ga%b, gb%b)
+    if (allocated(ga%r)) call move_alloc(ga%r, gb%r)
+  end subroutine move_grid
+
+  !> b = a, a emptied (no copy of the arrays).
+  subroutine move_csr(a, b)
+    type(csr_t), intent(inout) :: a, b
+    b%n = a%n
+    if (allocated(a%rowptr)) call move_alloc(a%rowptr, b%rowptr)
+    if (allocated(a%col)) call move_alloc(a%col, b%col)
+    if (allocated(a%diag)) call move_alloc(a%diag, b%diag)
+    if (allocated(a%val)) call move_alloc(a%val, b%val)
+    a%n = 0
+  end subroutine move_csr
+
   !> The transfer t with t%p set: t%pt, the sizes and the aggregates (largest weight).
   subroutine general_transfer(t, st)
     type(mg_transfer_t), intent(inout) :: t
@@ -395,6 +471,30 @@ contains
         t%agg(i) = t%p%col(t%p%rowptr(i) - 1 + maxloc(abs(t%p%val(t%p%rowptr(i):t%p%rowptr(i + 1) - 1)), 1))
     end do
   end subroutine general_transfer
+
+  !> Free the transposes P^T of the algebraic transfers (restrict then works through the
+  !> rows of P, rect_matvec_t; ensure_transpose rebuilds one where a Galerkin product needs
+  !> it): for a linear solve by CG, whose extra vectors would otherwise make the peak.
+  subroutine drop_transposes(h)
+    type(mg_hierarchy_t), intent(inout) :: h
+    integer :: l
+    do l = 2, h%nlevel
+      associate (t => h%transfer(l))
+        if (.not. t%algebraic) cycle
+        if (allocated(t%pt%rowptr)) deallocate (t%pt%rowptr)
+        if (allocated(t%pt%col)) deallocate (t%pt%col)
+        if (allocated(t%pt%val)) deallocate (t%pt%val)
+      end associate
+    end do
+  end subroutine drop_transposes
+
+  !> t%pt = t%p^T for an algebraic transfer whose transpose was dropped (drop_transposes).
+  subroutine ensure_transpose(t, st)
+    type(mg_transfer_t), intent(inout) :: t
+    type(status_t), intent(inout) :: st
+    if (.not. t%algebraic .or. allocated(t%pt%val)) return
+    call amg_transpose(t%p, t%pt, st)
+  end subroutine ensure_transpose
 
   !> The prolongation of a red refinement (module header) as a sparse matrix.
   subroutine red_prolongation(t, p, st)
@@ -462,7 +562,7 @@ contains
     if (.not. is_ok(st)) return
     n = a%n
     res%grids = h%nlevel
-    allocate (r(n), v(n), frozen(n), frozen_prev(n), stat=ierr)
+    allocate (r(n), v(n), frozen(n), stat=ierr)
     if (ierr == 0) call setup_grids(h, a, .false., ierr)
     if (ierr /= 0) then
       call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(n) // ' unknowns')
@@ -482,8 +582,15 @@ contains
     if (settings%krylov .and. all(kind == BOUND_FREE)) then
       frozen = .false.
       call galerkin_all(h, a, frozen, st)
+      if (is_ok(st)) call drop_transposes(h)         ! CG holds more vectors: restrict through P
       if (is_ok(st)) call pcg_linear(h, a, f, x, settings, den, r, v, frozen, res, st)
       h%values_fresh = .false.
+      return
+    end if
+    allocate (frozen_prev(n), stat=ierr)                ! (not needed by pcg_linear)
+    if (ierr /= 0) then
+      h%values_fresh = .false.
+      call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(n) // ' unknowns')
       return
     end if
     frozen_prev = .false.
@@ -545,10 +652,11 @@ contains
     logical, intent(in) :: frozen(:)
     type(mg_result_t), intent(inout) :: res
     type(status_t), intent(inout) :: st
-    real(dp), allocatable :: p(:), q(:), w(:), w2(:)
+    real(dp), allocatable :: p(:), q(:), w2(:)
     real(dp) :: rz, rz_new, alpha, delta, delta_prev, ratio_prev, ratio
     integer :: ierr
-    allocate (p(a%n), q(a%n), w(a%n), w2(a%n), stat=ierr)
+    ! q = A p is dead once r is updated: it is the V-cycle's first work vector too
+    allocate (p(a%n), q(a%n), w2(a%n), stat=ierr)
     if (ierr /= 0) then
       call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for ' // itoa(a%n) // ' unknowns')
       return
@@ -558,7 +666,7 @@ contains
     res%kkt_residual = norm_ratio(r, den)
     res%converged = res%kkt_residual <= settings%tol
     if (res%converged) return
-    call pcg_vcycle(h, a, r, z, w, w2, frozen, settings)
+    call pcg_vcycle(h, a, r, z, q, w2, frozen, settings)
     p = z
     rz = dot_product(r, z)
     delta_prev = -1.0_dp
@@ -588,7 +696,7 @@ contains
         res%converged = res%energy_stop
       end if
       if (res%converged) exit
-      call pcg_vcycle(h, a, r, z, w, w2, frozen, settings)
+      call pcg_vcycle(h, a, r, z, q, w2, frozen, settings)
       rz_new = dot_product(r, z)
       p = z + (rz_new / rz) * p
       rz = rz_new
@@ -854,6 +962,9 @@ contains
     do l = h%nlevel, 2, -1
       nc = h%transfer(l)%nc
       if (h%transfer(l)%algebraic) then
+        call ensure_transpose(h%transfer(l), st)
+        if (.not. is_ok(st)) ierr = 1
+        if (ierr /= 0) return
         if (l == h%nlevel) call amg_galerkin_product(h%transfer(l)%p, h%transfer(l)%pt, a, h%grid(l - 1)%a, st)
         if (l < h%nlevel) call amg_galerkin_product(h%transfer(l)%p, h%transfer(l)%pt, h%grid(l)%a, h%grid(l - 1)%a, st)
         if (.not. is_ok(st)) ierr = 1
@@ -1126,6 +1237,10 @@ contains
       return
     end if
     h%values_fresh = .false.
+    do l = 2, h%nlevel
+      call ensure_transpose(h%transfer(l), st)
+      if (.not. is_ok(st)) return
+    end do
     allocate (pos(h%transfer(h%nlevel)%nc), source=0, stat=ierr)
     if (ierr == 0 .and. present(frozen_prev)) allocate (mark(a%n), source=.false., stat=ierr)
     if (ierr /= 0) then
@@ -1279,7 +1394,11 @@ contains
     real(dp), intent(out) :: bc(:)
     integer :: e
     if (t%algebraic) then
-      call rect_matvec(t%pt, rf, bc)
+      if (allocated(t%pt%val)) then
+        call rect_matvec(t%pt, rf, bc)
+      else
+        call rect_matvec_t(t%p, rf, bc)              ! the transpose not held (drop_transposes)
+      end if
       return
     end if
     bc = rf(1:t%nc)
