@@ -328,12 +328,9 @@ contains
     do k = 1, nb                     ! built finest first: transfer k maps grid nb+1-k to nb+2-k
       l = nb + 2 - k
       call move_transfer(tr(k), h%transfer(l))
-      call move_alloc(ops(k)%rowptr, h%grid(l - 1)%a%rowptr)
-      call move_alloc(ops(k)%col, h%grid(l - 1)%a%col)
-      call move_alloc(ops(k)%diag, h%grid(l - 1)%a%diag)
-      call move_alloc(ops(k)%val, h%grid(l - 1)%a%val)
-      h%grid(l - 1)%a%n = ops(k)%n
-      allocate (h%grid(l - 1)%x(ops(k)%n), h%grid(l - 1)%b(ops(k)%n), h%grid(l - 1)%r(ops(k)%n), stat=ierr)
+      call move_csr(ops(k), h%grid(l - 1)%a)
+      n = h%grid(l - 1)%a%n
+      allocate (h%grid(l - 1)%x(n), h%grid(l - 1)%b(n), h%grid(l - 1)%r(n), stat=ierr)
       if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse vectors')
       if (ierr /= 0) return
     end do
@@ -394,8 +391,10 @@ contains
     type(status_t), intent(out) :: st
     type(csr_t), intent(inout), optional :: a_src
     integer :: l, ierr
-    logical :: ops
-    if (src%nlevel < 1 .or. p%n /= finest_size(src) .or. .not. all(src%transfer(2:src%nlevel)%algebraic)) then
+    logical :: ops, general
+    general = src%nlevel < 1 .or. p%n /= finest_size(src)
+    if (.not. general) general = .not. all(src%transfer(2:src%nlevel)%algebraic)   ! (transfer allocated)
+    if (general) then
       call mg_extend_algebraic(src, p, dst, st)       ! (refusal, or red transfers: made anew)
       call mg_clear(src)
       return
