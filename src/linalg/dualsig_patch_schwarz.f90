@@ -25,7 +25,7 @@
 !> relative to what is left to gain at most: a computable criterion).
 module dualsig_patch_schwarz
   use dualsig_kinds, only: dp, i8
-  use dualsig_sparse, only: csr_t, csr_matvec, rect_t, rect_matvec, rect_matvec_t
+  use dualsig_sparse, only: csr_t, csr_matvec, csr_move, rect_t, rect_matvec, rect_matvec_t, rect_move
   use dualsig_spd_solver, only: cholmod_spd_t
   use dualsig_status, only: status_t, set_error, DS_ERR_NUMERIC, DS_ERR_MEMORY
   use dualsig_alloc, only: alloc_failed, BYTES_REAL
@@ -111,34 +111,18 @@ contains
     if (l > 1) then
       call patch_schwarz_setup(a, ptr, idx, bounded, h%lev(l)%ps, st)
       if (st%code /= 0) return
-      call move_csr(p, h%lev(l)%p)
+      call rect_move(p, h%lev(l)%p)
     end if
     allocate (h%lev(l)%r(a%n), h%lev(l)%z(a%n), h%lev(l)%w(a%n), stat=ierr)
     if (ierr /= 0) then
       call set_error(st, DS_ERR_MEMORY, 'multigrid: out of memory (' // itoa(a%n) // ' unknowns)')
       return
     end if
-    h%lev(l)%a%n = a%n
-    call move_alloc(a%rowptr, h%lev(l)%a%rowptr)
-    call move_alloc(a%col, h%lev(l)%a%col)
-    call move_alloc(a%diag, h%lev(l)%a%diag)
-    call move_alloc(a%val, h%lev(l)%a%val)
-    a = csr_t()
+    call csr_move(a, h%lev(l)%a)
     h%lev(l)%bounded = bounded
     h%lev(l)%held = bounded
     h%nlevel = l
   end subroutine mg_add_level
-
-  !> q = p, p emptied (without copying the arrays).
-  subroutine move_csr(p, q)
-    type(rect_t), intent(inout) :: p, q
-    q%m = p%m
-    q%n = p%n
-    call move_alloc(p%rowptr, q%rowptr)
-    call move_alloc(p%col, q%col)
-    call move_alloc(p%val, q%val)
-    p = rect_t()
-  end subroutine move_csr
 
   !> Hold the unknowns of the finest level that are not free, and on every coarser level
   !> the bounded unknowns whose prolongation reaches a held finer one (so that coarse

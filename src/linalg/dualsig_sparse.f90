@@ -11,8 +11,8 @@ module dualsig_sparse
   private
 
   public :: csr_t, csr_pattern_from_edges, csr_pattern_from_cliques, csr_add, csr_add_block, &
-            csr_get, csr_matvec, csr_is_symmetric, csr_nnz, csr_set_row_pattern, sort_small_ints
-  public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t, sort_row_by_column
+            csr_get, csr_matvec, csr_is_symmetric, csr_nnz, csr_set_row_pattern, sort_small_ints, csr_move
+  public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t, sort_row_by_column, rect_move
 
   type :: csr_t
     integer :: n = 0                     !! number of rows = number of columns
@@ -371,4 +371,30 @@ contains
       v(j + 1) = key
     end do
   end subroutine sort_small_ints
+
+  !> b = a without copying the arrays (move_alloc): b's former contents are freed, b takes
+  !> a's order and arrays (an array a lacks, b lacks too); a is left empty (csr_t()).
+  pure subroutine csr_move(a, b)
+    type(csr_t), intent(inout) :: a
+    type(csr_t), intent(out) :: b
+    b%n = a%n
+    call move_alloc(a%rowptr, b%rowptr)
+    call move_alloc(a%col, b%col)
+    call move_alloc(a%diag, b%diag)
+    call move_alloc(a%val, b%val)
+    a = csr_t()
+  end subroutine csr_move
+
+  !> b = a without copying the arrays (move_alloc): b's former contents are freed, b takes
+  !> a's sizes and arrays (an array a lacks, b lacks too); a is left empty (rect_t()).
+  pure subroutine rect_move(a, b)
+    type(rect_t), intent(inout) :: a
+    type(rect_t), intent(out) :: b
+    b%m = a%m
+    b%n = a%n
+    call move_alloc(a%rowptr, b%rowptr)
+    call move_alloc(a%col, b%col)
+    call move_alloc(a%val, b%val)
+    a = rect_t()
+  end subroutine rect_move
 end module dualsig_sparse

@@ -46,7 +46,7 @@
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
   use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec, rect_matvec_t, &
-                            csr_set_row_pattern
+                            csr_set_row_pattern, csr_move, rect_move
   use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_product, amg_galerkin_values, &
                                      amg_sweep_order, &
                                      amg_coarsest_max
@@ -257,20 +257,10 @@ contains
     call move_alloc(ta%cptr, tb%cptr)
     call move_alloc(ta%child, tb%child)
     tb%algebraic = ta%algebraic
-    call move_rect(ta%p, tb%p)
-    call move_rect(ta%pt, tb%pt)
+    call rect_move(ta%p, tb%p)
+    call rect_move(ta%pt, tb%pt)
     if (allocated(ta%agg)) call move_alloc(ta%agg, tb%agg)
   end subroutine move_transfer
-
-  !> rb = ra, ra emptied.
-  subroutine move_rect(ra, rb)
-    type(rect_t), intent(inout) :: ra, rb
-    rb%m = ra%m
-    rb%n = ra%n
-    if (allocated(ra%rowptr)) call move_alloc(ra%rowptr, rb%rowptr)
-    if (allocated(ra%col)) call move_alloc(ra%col, rb%col)
-    if (allocated(ra%val)) call move_alloc(ra%val, rb%val)
-  end subroutine move_rect
 
   !> Replace h by an algebraic hierarchy of the matrix a (smoothed aggregation,
   !> dualsig_amg_aggregation) for a mesh without a hierarchy of refinements: grids are
@@ -328,7 +318,7 @@ contains
     do k = 1, nb                     ! built finest first: transfer k maps grid nb+1-k to nb+2-k
       l = nb + 2 - k
       call move_transfer(tr(k), h%transfer(l))
-      call move_csr(ops(k), h%grid(l - 1)%a)
+      call csr_move(ops(k), h%grid(l - 1)%a)
       n = h%grid(l - 1)%a%n
       allocate (h%grid(l - 1)%x(n), h%grid(l - 1)%b(n), h%grid(l - 1)%r(n), stat=ierr)
       if (ierr /= 0) call set_error(st, DS_ERR_NUMERIC, 'multigrid: out of memory for the coarse vectors')
@@ -372,7 +362,7 @@ contains
       end associate
       if (.not. is_ok(st)) return
     end do
-    call move_rect(p, dst%transfer(dst%nlevel)%p)
+    call rect_move(p, dst%transfer(dst%nlevel)%p)
     call general_transfer(dst%transfer(dst%nlevel), st)
   end subroutine mg_extend_algebraic
 
@@ -411,20 +401,20 @@ contains
     dst%nlevel = src%nlevel + 1
     dst%n1 = src%n1
     do l = 2, src%nlevel
-      call move_rect(src%transfer(l)%p, dst%transfer(l)%p)
+      call rect_move(src%transfer(l)%p, dst%transfer(l)%p)
     end do
     if (ops) then
       do l = 1, src%nlevel - 1
         call move_grid(src%grid(l), dst%grid(l))
       end do
-      call move_csr(a_src, dst%grid(src%nlevel)%a)
+      call csr_move(a_src, dst%grid(src%nlevel)%a)
       associate (g => dst%grid(src%nlevel))
         allocate (g%x(g%a%n), g%b(g%a%n), g%r(g%a%n), stat=ierr)
       end associate
       if (alloc_failed(ierr, st, 'the vectors of a coarse grid', 3_i8 * p%n, BYTES_REAL)) return
     end if
     call mg_clear(src)                                ! its transposes, before new ones
-    call move_rect(p, dst%transfer(dst%nlevel)%p)
+    call rect_move(p, dst%transfer(dst%nlevel)%p)
     do l = 2, dst%nlevel
       call general_transfer(dst%transfer(l), st)
       if (.not. is_ok(st)) return
@@ -435,22 +425,11 @@ contains
   !> gb = ga, ga emptied (no copy of the arrays).
   subroutine move_grid(ga, gb)
     type(mg_grid_t), intent(inout) :: ga, gb
-    call move_csr(ga%a, gb%a)
+    call csr_move(ga%a, gb%a)
     if (allocated(ga%x)) call move_alloc(ga%x, gb%x)
     if (allocated(ga%b)) call move_alloc(ga%b, gb%b)
     if (allocated(ga%r)) call move_alloc(ga%r, gb%r)
   end subroutine move_grid
-
-  !> b = a, a emptied (no copy of the arrays).
-  subroutine move_csr(a, b)
-    type(csr_t), intent(inout) :: a, b
-    b%n = a%n
-    if (allocated(a%rowptr)) call move_alloc(a%rowptr, b%rowptr)
-    if (allocated(a%col)) call move_alloc(a%col, b%col)
-    if (allocated(a%diag)) call move_alloc(a%diag, b%diag)
-    if (allocated(a%val)) call move_alloc(a%val, b%val)
-    a%n = 0
-  end subroutine move_csr
 
   !> The transfer t with t%p set: t%pt, the sizes and the aggregates (largest weight).
   subroutine general_transfer(t, st)
