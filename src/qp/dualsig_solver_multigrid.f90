@@ -19,8 +19,9 @@
 !> One iteration, from the iterate x:
 !>  1. a symmetric projected Gauss-Seidel sweep (forward, backward; exact per node for
 !>     bounds; `sweeps` half-sweeps);
-!>  2. the residual r = F - A x and the KKT test (the stopping criterion of every qp solver,
-!>     `kkt_residual`, computed from r without another product);
+!>  2. the residual r = F - A x, kept by the last sweep as it goes (A symmetric: no product
+!>     with A), and the KKT test (the stopping criterion of every qp solver, `kkt_residual`,
+!>     computed from r; confirmed on a residual computed afresh before the solve stops);
 !>  3. truncation: the fixed unknowns and the bounded unknowns at their bound are frozen
 !>     (weight 0, the truncated basis of TNNMG);
 !>  4. a linear correction v on the free unknowns: one V(3,3) cycle (Gauss-Seidel,
@@ -29,7 +30,8 @@
 !>     A_{l-1} = P^T A_l P below; when the frozen set changes only the rows it reaches are
 !>     recomputed (O(sqrt N) on a contact boundary);
 !>  5. the projected direction w = max(x + v, bnd) - x on the bounded unknowns (v elsewhere)
-!>     and the exact line search min_alpha J(x + alpha w) over the feasible alphas;
+!>     and the exact line search min_alpha J(x + alpha w) over the feasible alphas (w.Aw
+!>     from grid L-1's operator and the rows of the clipped unknowns);
 !>  6. a symmetric projected Gauss-Seidel sweep (backward, forward).
 !> A zero start is first replaced by nested iteration on the coarser grids (fmg_start: the
 !> QP restricted to each grid, one iteration per grid, interpolated upwards), so that cold
@@ -39,7 +41,9 @@
 !> Every step decreases the energy (monotone), so the iteration converges from any start;
 !> once the contact set is found it is linear multigrid with h-independent rates (the KKT
 !> residual falls by about 20 per iteration on the P1 and P2 scenes).
-!> Work per iteration: about eight products with A on the finest grid; storage: the coarse
+!> Work per iteration: four sweeps and about two products' worth of vector work on the
+!> finest grid, a third of that on the coarser ones (each grid's residual is kept by its last
+!> pre-sweep too); storage: the coarse
 !> operators (about a third of A), the prolongations and two vectors and two masks on the
 !> finest grid: about 80 bytes per unknown (mg_memory_bytes); a cold start holds, while it
 !> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
@@ -83,6 +87,9 @@ module dualsig_solver_multigrid
   !> grid's size); symmetric Gauss-Seidel sweeps replace it when its truncated operator is
   !> only semi-definite and the factorisation fails.
   integer, parameter :: coarse_sweeps_fallback = 50
+  !> The line search takes w.Aw from the coarse grid when the projection clips at most this
+  !> fraction of the unknowns (a contact boundary: O(sqrt N)); else by a product with A.
+  real(dp), parameter :: line_search_clip_max = 0.125_dp
 
   !> The prolongation from grid l-1 (nc nodes) to grid l (nf = nc + size(ends, 2) nodes) and
   !> its transpose by coarse node: the fine nodes child(cptr(I) : cptr(I+1)-1) contribute to
@@ -535,6 +542,7 @@ contains
     logical, allocatable :: frozen(:), frozen_prev(:)
     real(dp) :: den
     integer :: n, ierr, nchanged, k
+    logical :: confirmed
 
     call check_input(h, a, f, kind, bnd, x, settings, st)
     if (.not. is_ok(st)) return
@@ -572,17 +580,22 @@ contains
       return
     end if
     frozen_prev = .false.
+    confirmed = .false.
     do
-      do k = 1, settings%sweeps
-        call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 1)
-      end do
-      call residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, res%kkt_residual, nchanged)
+      call presmooth_residual(a, f, kind, bnd, x, settings%sweeps, r)
+      call kkt_of_residual(a, kind, bnd, x, r, frozen_prev, frozen, res%kkt_residual, nchanged)
       if (den > 0.0_dp) res%kkt_residual = res%kkt_residual / den
       if (.not. (res%kkt_residual <= huge(1.0_dp))) then
         call set_error(st, DS_ERR_NUMERIC, 'multigrid: the iterate is no longer finite')
         exit
       end if
       res%converged = res%kkt_residual <= settings%tol
+      if (res%converged) then         ! the test again on r = F - A x computed afresh
+        call residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, res%kkt_residual, nchanged)
+        if (den > 0.0_dp) res%kkt_residual = res%kkt_residual / den
+        res%converged = res%kkt_residual <= settings%tol
+        confirmed = res%converged
+      end if
       if (res%converged .or. res%iterations >= settings%max_iter) exit
       res%iterations = res%iterations + 1
       if (res%iterations == 1) then
@@ -594,7 +607,7 @@ contains
       if (res%iterations == 1 .or. nchanged > 0) res%galerkin_updates = res%galerkin_updates + 1
       frozen_prev = frozen
       call coarse_correction(h, frozen, r, v, settings%coarse_sweeps)
-      call line_search(a, kind, bnd, r, v, x)
+      call line_search(h, a, kind, bnd, r, v, x)
       do k = 1, settings%sweeps
         call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 0)
       end do
@@ -604,7 +617,7 @@ contains
       res%kkt_residual = huge(1.0_dp)
       return
     end if
-    res%kkt_residual = kkt_residual(a, f, kind, bnd, x, r)
+    if (.not. confirmed) res%kkt_residual = kkt_residual(a, f, kind, bnd, x, r)
     res%converged = res%kkt_residual <= settings%tol
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'multigrid: not converged after ' // &
       itoa(res%iterations) // ' iterations (KKT residual above the tolerance)')
@@ -877,9 +890,9 @@ contains
     end if
   end subroutine check_input
 
-  !> In one pass: r = F - A x, the unscaled KKT residual of dualsig_qp_types (`kkt`, to be
-  !> divided by ||F||), the frozen unknowns (fixed, or bounded and at the bound) and how many
-  !> of them differ from `frozen_prev`.
+  !> r = F - A x, the unscaled KKT residual of dualsig_qp_types (`kkt`, to be divided by
+  !> ||F||), the frozen unknowns and how many of them differ from `frozen_prev`
+  !> (kkt_of_residual).
   pure subroutine residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, kkt, nchanged)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: f(:)
@@ -890,22 +903,33 @@ contains
     logical, intent(out) :: frozen(:)
     real(dp), intent(out) :: kkt
     integer, intent(out) :: nchanged
+    call csr_matvec(a, x, r)
+    r = f - r
+    call kkt_of_residual(a, kind, bnd, x, r, frozen_prev, frozen, kkt, nchanged)
+  end subroutine residual_kkt
+
+  !> From r = F - A x: the unscaled KKT residual of dualsig_qp_types (`kkt`), the frozen
+  !> unknowns (fixed, or bounded and at the bound) and how many of them differ from
+  !> `frozen_prev`.
+  pure subroutine kkt_of_residual(a, kind, bnd, x, r, frozen_prev, frozen, kkt, nchanged)
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:), x(:), r(:)
+    logical, intent(in) :: frozen_prev(:)
+    logical, intent(out) :: frozen(:)
+    real(dp), intent(out) :: kkt
+    integer, intent(out) :: nchanged
     type(norm_acc_t) :: num
-    real(dp) :: g, s
-    integer :: i, p
+    real(dp) :: g
+    integer :: i
     nchanged = 0
     do i = 1, a%n
-      s = f(i)
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        s = s - a%val(p) * x(a%col(p))
-      end do
-      r(i) = s
       select case (kind(i))
       case (BOUND_FREE)
-        g = -s
+        g = -r(i)
         frozen(i) = .false.
       case (BOUND_LOWER)
-        g = min(-s, a%val(a%diag(i)) * (x(i) - bnd(i)))
+        g = min(-r(i), a%val(a%diag(i)) * (x(i) - bnd(i)))
         frozen(i) = x(i) <= bnd(i)
       case default
         g = 0.0_dp
@@ -915,7 +939,28 @@ contains
       if (frozen(i) .neqv. frozen_prev(i)) nchanged = nchanged + 1
     end do
     kkt = norm_acc_value(num)
-  end subroutine residual_kkt
+  end subroutine kkt_of_residual
+
+  !> `sweeps` projected Gauss-Seidel sweeps (forward, backward, ...) and r = F - A x of the
+  !> result: the last sweep keeps r as it goes (sweep_projected_residual), so no product
+  !> with A is needed; sweeps = 0: r computed by one.
+  pure subroutine presmooth_residual(a, f, kind, bnd, x, sweeps, r)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:), bnd(:)
+    integer, intent(in) :: kind(:), sweeps
+    real(dp), intent(inout) :: x(:)
+    real(dp), intent(out) :: r(:)
+    integer :: k
+    if (sweeps <= 0) then
+      call csr_matvec(a, x, r)
+      r = f - r
+      return
+    end if
+    do k = 1, sweeps - 1
+      call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 1)
+    end do
+    call sweep_projected_residual(a, f, kind, bnd, x, r, mod(sweeps, 2) == 1)
+  end subroutine presmooth_residual
 
   !> The coarse operators' patterns and the vectors of grids 1..L-1 (once per hierarchy).
   !> The pattern of P^T A P is the edge graph of the coarse mesh when A has the pattern of
@@ -1322,11 +1367,15 @@ contains
         end do
         return
       end if
-      do k = 1, nu
-        call gs_linear(g%a, g%b, g%x, mod(k, 2) == 1)
-      end do
-      call csr_matvec(g%a, g%x, g%r)
-      g%r = g%b - g%r
+      if (nu > 0) then
+        do k = 1, nu - 1
+          call gs_linear(g%a, g%b, g%x, mod(k, 2) == 1)
+        end do
+        call gs_linear_residual(g%a, g%b, g%x, g%r, mod(nu, 2) == 1)
+      else
+        call csr_matvec(g%a, g%x, g%r)
+        g%r = g%b - g%r
+      end if
       call restrict(h%transfer(l), g%r, h%grid(l - 1)%b)
       call vcycle(h, l - 1, nu)
       call prolong_add(h%transfer(l), h%grid(l - 1)%x, g%x)
@@ -1364,6 +1413,37 @@ contains
       x(i) = x(i) + s / d
     end do
   end subroutine gs_linear
+
+  !> gs_linear that also leaves r = b - A x of the returned x (A symmetric; as
+  !> sweep_projected_residual).
+  pure subroutine gs_linear_residual(a, b, x, r, forward)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: b(:)
+    real(dp), intent(inout) :: x(:)
+    real(dp), intent(out) :: r(:)
+    logical, intent(in) :: forward
+    integer :: i, j, p, i0, i1, di
+    real(dp) :: s, d, dx
+    i0 = merge(1, a%n, forward)
+    i1 = merge(a%n, 1, forward)
+    di = merge(1, -1, forward)
+    do i = i0, i1, di
+      s = b(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s - a%val(p) * x(a%col(p))
+      end do
+      d = a%val(a%diag(i))
+      r(i) = s
+      if (d <= 0.0_dp) cycle
+      dx = s / d
+      x(i) = x(i) + dx
+      r(i) = s - d * dx
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        j = a%col(p)
+        if ((j - i) * di < 0) r(j) = r(j) - a%val(p) * dx       ! rows swept before i
+      end do
+    end do
+  end subroutine gs_linear_residual
 
   !> bc = P^T rf.
   pure subroutine restrict(t, rf, bc)
@@ -1425,31 +1505,26 @@ contains
   !> x = x + alpha w with the projected direction w = max(x + v, bnd) - x on the bounded
   !> unknowns (v elsewhere; v is zero at the frozen ones) and alpha minimising the energy
   !> J(x + alpha w) = J(x) - alpha r.w + alpha^2/2 w.Aw over the feasible alphas [0, alpha_max]
-  !> (alpha_max >= 1).  On return v holds w.
-  subroutine line_search(a, kind, bnd, r, v, x)
+  !> (alpha_max >= 1).  On return v holds w.  v = P_T v_c on entry (coarse_correction, v_c
+  !> the solution on grid L-1, A_c = P_T^T A P_T its operator), so with d = w - v (non-zero
+  !> only where the projection clips) w.Aw = v_c.A_c v_c + d.A(v + w): a product on grid
+  !> L-1 and the rows of the clipped unknowns instead of a product with A
+  !> (line_search_curvature).
+  subroutine line_search(h, a, kind, bnd, r, v, x)
+    type(mg_hierarchy_t), intent(in) :: h
     type(csr_t), intent(in) :: a
     integer, intent(in) :: kind(:)
     real(dp), intent(in) :: bnd(:), r(:)
     real(dp), intent(inout) :: v(:)
     real(dp), intent(inout) :: x(:)
-    real(dp) :: alpha, alpha_max, waw, rw, s
-    integer :: i, p
+    real(dp) :: alpha, alpha_max, waw, rw
+    integer :: i
+    call line_search_curvature(h, a, kind, bnd, x, v, waw)   ! (v becomes w)
     rw = 0.0_dp
     alpha_max = huge(1.0_dp)
     do i = 1, a%n
-      if (kind(i) == BOUND_LOWER) then
-        v(i) = max(x(i) + v(i), bnd(i)) - x(i)
-        if (v(i) < 0.0_dp) alpha_max = min(alpha_max, (x(i) - bnd(i)) / (-v(i)))
-      end if
+      if (kind(i) == BOUND_LOWER .and. v(i) < 0.0_dp) alpha_max = min(alpha_max, (x(i) - bnd(i)) / (-v(i)))
       rw = rw + r(i) * v(i)
-    end do
-    waw = 0.0_dp
-    do i = 1, a%n                     ! w.Aw without storing Aw
-      s = 0.0_dp
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        s = s + a%val(p) * v(a%col(p))
-      end do
-      waw = waw + v(i) * s
     end do
     if (.not. (waw > 0.0_dp) .or. .not. (rw > 0.0_dp)) return
     alpha = min(rw / waw, alpha_max)
@@ -1458,6 +1533,119 @@ contains
       if (kind(i) == BOUND_LOWER) x(i) = max(x(i), bnd(i))
     end do
   end subroutine line_search
+
+  !> v <- w = max(x + v, bnd) - x on the bounded unknowns, and waw = w.Aw, for line_search.
+  !> When the projection clips at most a fraction line_search_clip_max of the unknowns,
+  !> waw = v_c.A_c v_c + sum over the clipped i of d_i ((A v)_i + (A w)_i), d = w - v;
+  !> otherwise by a product with A.
+  subroutine line_search_curvature(h, a, kind, bnd, x, v, waw)
+    type(mg_hierarchy_t), intent(in) :: h
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:), x(:)
+    real(dp), intent(inout) :: v(:)
+    real(dp), intent(out) :: waw
+    integer, allocatable :: clip(:)
+    real(dp), allocatable :: av(:), dv(:)
+    integer :: i, k, m, ierr
+    m = 0
+    do i = 1, a%n
+      if (kind(i) == BOUND_LOWER) then
+        if (x(i) + v(i) < bnd(i)) m = m + 1
+      end if
+    end do
+    ierr = 1
+    if (real(m, dp) <= line_search_clip_max * real(a%n, dp)) allocate (clip(m), av(m), dv(m), stat=ierr)
+    if (ierr /= 0) then                          ! many clipped (or no memory): w.Aw directly
+      where (kind == BOUND_LOWER) v = max(x + v, bnd) - x
+      waw = quadratic_form(a, v)
+      return
+    end if
+    k = 0
+    do i = 1, a%n
+      if (kind(i) == BOUND_LOWER) then
+        if (x(i) + v(i) < bnd(i)) then
+          k = k + 1
+          clip(k) = i
+          av(k) = row_dot(a, i, v)                 ! (A v)_i before the clipping
+        end if
+      end if
+    end do
+    do k = 1, m
+      i = clip(k)
+      dv(k) = (bnd(i) - x(i)) - v(i)
+      v(i) = bnd(i) - x(i)
+    end do
+    associate (g => h%grid(h%nlevel - 1))
+      waw = quadratic_form(g%a, g%x)
+    end associate
+    do k = 1, m
+      waw = waw + dv(k) * (av(k) + row_dot(a, clip(k), v))
+    end do
+  end subroutine line_search_curvature
+
+  !> y^T A y without storing A y.
+  pure real(dp) function quadratic_form(a, y) result(q)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: y(:)
+    integer :: i
+    q = 0.0_dp
+    do i = 1, a%n
+      q = q + y(i) * row_dot(a, i, y)
+    end do
+  end function quadratic_form
+
+  !> (A y)_i.
+  pure real(dp) function row_dot(a, i, y) result(s)
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: i
+    real(dp), intent(in) :: y(:)
+    integer :: p
+    s = 0.0_dp
+    do p = a%rowptr(i), a%rowptr(i + 1) - 1
+      s = s + a%val(p) * y(a%col(p))
+    end do
+  end function row_dot
+
+  !> sweep_projected that also leaves r = F - A x of the returned x.  A is symmetric (the
+  !> QP's matrix): the residual of a row is taken at its own update, and each later update
+  !> dx_i corrects the rows swept before it through row i itself (a_ji = a_ij), which the
+  !> pass has just read.  Fixed unknowns are not touched, their residual is computed.
+  pure subroutine sweep_projected_residual(a, f, kind, bnd, x, r, forward)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: f(:)
+    integer, intent(in) :: kind(:)
+    real(dp), intent(in) :: bnd(:)
+    real(dp), intent(inout) :: x(:)
+    real(dp), intent(out) :: r(:)
+    logical, intent(in) :: forward
+    integer :: i, j, p, i0, i1, di
+    real(dp) :: s, y, d, dx
+    i0 = merge(1, a%n, forward)
+    i1 = merge(a%n, 1, forward)
+    di = merge(1, -1, forward)
+    do i = i0, i1, di
+      s = f(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s - a%val(p) * x(a%col(p))
+      end do
+      if (kind(i) == BOUND_FIXED) then
+        r(i) = s
+        cycle
+      end if
+      d = a%val(a%diag(i))
+      y = x(i) + s / d
+      if (kind(i) == BOUND_LOWER) y = max(y, bnd(i))
+      dx = y - x(i)
+      x(i) = y
+      r(i) = s - d * dx
+      if (dx == 0.0_dp) cycle
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        j = a%col(p)
+        if ((j - i) * di < 0) r(j) = r(j) - a%val(p) * dx       ! rows swept before i
+      end do
+    end do
+  end subroutine sweep_projected_residual
 
   !> One projected Gauss-Seidel sweep, in increasing (forward) or decreasing order:
   !> x_i <- max(x_i + (F_i - (A x)_i) / A_ii, bnd_i) for the bounded unknowns, without the
