@@ -1422,7 +1422,7 @@ contains
     real(dp), intent(inout) :: x(:)
     real(dp), intent(out) :: r(:)
     logical, intent(in) :: forward
-    integer :: i, j, p, i0, i1, di
+    integer :: i, p, i0, i1, di
     real(dp) :: s, d, dx
     i0 = merge(1, a%n, forward)
     i1 = merge(a%n, 1, forward)
@@ -1438,10 +1438,7 @@ contains
       dx = s / d
       x(i) = x(i) + dx
       r(i) = s - d * dx
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        j = a%col(p)
-        if ((j - i) * di < 0) r(j) = r(j) - a%val(p) * dx       ! rows swept before i
-      end do
+      call correct_swept_rows(a, i, forward, dx, r)
     end do
   end subroutine gs_linear_residual
 
@@ -1610,7 +1607,7 @@ contains
   !> sweep_projected that also leaves r = F - A x of the returned x.  A is symmetric (the
   !> QP's matrix): the residual of a row is taken at its own update, and each later update
   !> dx_i corrects the rows swept before it through row i itself (a_ji = a_ij), which the
-  !> pass has just read.  Fixed unknowns are not touched, their residual is computed.
+  !> pass has just read (correct_swept_rows).  Fixed unknowns are not touched, their residual is computed.
   pure subroutine sweep_projected_residual(a, f, kind, bnd, x, r, forward)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: f(:)
@@ -1619,7 +1616,7 @@ contains
     real(dp), intent(inout) :: x(:)
     real(dp), intent(out) :: r(:)
     logical, intent(in) :: forward
-    integer :: i, j, p, i0, i1, di
+    integer :: i, p, i0, i1, di
     real(dp) :: s, y, d, dx
     i0 = merge(1, a%n, forward)
     i1 = merge(a%n, 1, forward)
@@ -1640,12 +1637,29 @@ contains
       x(i) = y
       r(i) = s - d * dx
       if (dx == 0.0_dp) cycle
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        j = a%col(p)
-        if ((j - i) * di < 0) r(j) = r(j) - a%val(p) * dx       ! rows swept before i
-      end do
+      call correct_swept_rows(a, i, forward, dx, r)
     end do
   end subroutine sweep_projected_residual
+
+  !> r_j = r_j - a_ij dx for the rows j swept before row i: j < i forward, j > i backward,
+  !> i.e. the entries of row i before resp. after its diagonal (columns sorted in a row).
+  pure subroutine correct_swept_rows(a, i, forward, dx, r)
+    type(csr_t), intent(in) :: a
+    integer, intent(in) :: i
+    logical, intent(in) :: forward
+    real(dp), intent(in) :: dx
+    real(dp), intent(inout) :: r(:)
+    integer :: p
+    if (forward) then
+      do p = a%rowptr(i), a%diag(i) - 1
+        r(a%col(p)) = r(a%col(p)) - a%val(p) * dx
+      end do
+    else
+      do p = a%diag(i) + 1, a%rowptr(i + 1) - 1
+        r(a%col(p)) = r(a%col(p)) - a%val(p) * dx
+      end do
+    end if
+  end subroutine correct_swept_rows
 
   !> One projected Gauss-Seidel sweep, in increasing (forward) or decreasing order:
   !> x_i <- max(x_i + (F_i - (A x)_i) / A_ii, bnd_i) for the bounded unknowns, without the
