@@ -161,6 +161,10 @@ module dualsig_analysis
   !> share it was an iterate, KKT residual about 1e-4, L2 error up to 1.5 times the
   !> minimiser's on p2_contact from 8e5 to 6.5e6 unknowns), lambda_h the certificate.
   real(dp), parameter :: adapt_algebraic_share_default = 1.0e-3_dp
+  !> Default of analysis_settings_t%dual_algebraic_share, the same share for the levels of a
+  !> uniform run: the dual's bound moves by at most about share/2 relative (sqrt(1 + share)),
+  !> 1.0000640 -> 1.0000739 in eff at level 9 of p2_contact, for 2 instead of 5 V-cycles.
+  real(dp), parameter :: dual_algebraic_share_default = 1.0e-3_dp
 
   !> The adaptive loop solve -> estimate -> mark (Doerfler) -> refine (newest-vertex
   !> bisection): analysis_next_step, analysis_adapt_stop.
@@ -249,6 +253,10 @@ module dualsig_analysis
     !> P2: the particular field lambda^f, 'polynomial' (every bound integral exact, f - f_T an
     !> oscillation term) or 'stream' (the paper's lambda_bar + curl omega)
     character(len=16) :: dual_particular = 'polynomial'
+    !> the share of est the iterative P2 dual solve (the stream function) of a level of a
+    !> uniform run (from level 2 on) may leave, predicted from the last level (algebraic_est_tol);
+    !> 0: solved to the solver's tolerance.  Adaptive steps take adapt%algebraic_share.
+    real(dp) :: dual_algebraic_share = dual_algebraic_share_default
     !> P1: the dual space, 'hdiv' (RT1, tight bounds) or 'paper' (the [V_h]^2 of Section 3); P2 ignores it
     character(len=16) :: dual_space = 'hdiv'
     !> Largest relative divergence defect of the P2 dual field for which est is certified.
@@ -382,6 +390,10 @@ contains
     end if
     if (.not. allocated(problem%f)) then
       call set_error(st, DS_ERR_INPUT, 'analysis: the problem has no load f')
+      return
+    end if
+    if (.not. (settings%dual_algebraic_share >= 0.0_dp .and. settings%dual_algebraic_share < 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, 'analysis: dual algebraic_share out of range (expected 0 <= share < 1)')
       return
     end if
     if (settings%adapt%enabled) then
@@ -1253,18 +1265,21 @@ contains
     res%kkt_residual = mres%kkt_residual
   end subroutine solve_primal_multigrid
 
-  !> An adaptive step's tolerance on the part of est its dual solve may leave (est's units): the
-  !> share settings%adapt%algebraic_share of est predicted for ndof unknowns from the last
-  !> step at the optimal rate, est ~ 1 / ndof (a slower rate makes the true est larger, so
-  !> the share smaller).  0 (solve to the solvers' tolerances) on level 1, outside the
-  !> adaptive loop and when the last step has no est.
+  !> A level's tolerance on the part of est its dual solve may leave (est's units): the share
+  !> (settings%adapt%algebraic_share on an adaptive step, settings%dual_algebraic_share on a
+  !> level of a uniform run) of est predicted for ndof unknowns from the last level or step at
+  !> the optimal rate, est ~ 1 / ndof (a slower rate makes the true est larger, so the share
+  !> smaller).  0 (solve to the solvers' tolerances) on level 1 and when the last level has
+  !> no est.
   pure real(dp) function algebraic_est_tol(an, ndof) result(tol)
     type(analysis_t), intent(in) :: an
     integer, intent(in) :: ndof
+    real(dp) :: share
     tol = 0.0_dp
-    if (.not. an%settings%adapt%enabled .or. an%level < 2) return
+    if (an%level < 2) return
     if (.not. (an%last_est > 0.0_dp) .or. an%last_ndof <= 0 .or. ndof <= 0) return
-    tol = an%settings%adapt%algebraic_share * an%last_est * real(an%last_ndof, dp) / real(ndof, dp)
+    share = merge(an%settings%adapt%algebraic_share, an%settings%dual_algebraic_share, an%settings%adapt%enabled)
+    tol = share * an%last_est * real(an%last_ndof, dp) / real(ndof, dp)
   end function algebraic_est_tol
 
   !> An error of a solver becomes the level's error; a warning is recorded in res.

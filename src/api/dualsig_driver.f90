@@ -913,6 +913,7 @@ contains
     settings%dual_max_iter = cfg%dual_max_iter
     settings%dual_inner = cfg%dual_inner
     settings%dual_particular = cfg%dual_particular
+    settings%dual_algebraic_share = cfg%dual_algebraic_share
     settings%dual_space = cfg%dual_space
     settings%keep_fields = cfg%vtk
     settings%adapt%enabled = cfg%adapt_enabled

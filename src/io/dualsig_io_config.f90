@@ -56,7 +56,7 @@ module dualsig_io_config
   character(len=*), parameter :: solver_items = &
     'method omega omega_auto tol max_iter check_every nested'
   character(len=*), parameter :: dual_items = &
-    'enabled method rho tol tol_h2 max_iter ordering inner particular space'
+    'enabled method rho tol tol_h2 max_iter ordering inner particular space algebraic_share'
   character(len=*), parameter :: adapt_items = &
     'enabled theta tol max_ndof max_seconds min_growth algebraic_share'
   character(len=*), parameter :: problem_items = &
@@ -112,6 +112,9 @@ module dualsig_io_config
     character(len=16) :: dual_inner = 'schur'     !! P2 augmented: inner solver, 'schur' or 'active_set'
     character(len=16) :: dual_particular = 'polynomial' !! P2 lambda^f: 'polynomial' or 'stream' (the paper's)
     character(len=16) :: dual_space = 'hdiv'      !! P1: 'hdiv' (RT1, tight bounds) or 'paper' (Section 3)
+    !> the share of est the iterative dual solve of a uniform level may leave, 0 <= share < 1
+    !> (0: exact; adaptive steps: adapt_algebraic_share)
+    real(dp) :: dual_algebraic_share = 1.0e-3_dp
     ! &adapt: solve -> estimate -> mark (Doerfler) -> refine (newest-vertex bisection)
     logical :: adapt_enabled = .false.
     real(dp) :: adapt_theta = 0.5_dp               !! Doerfler parameter, 0 < theta <= 1
@@ -340,7 +343,8 @@ contains
       ''', rho = ' // rtoa(cfg%dual_rho) // ', tol = ' // rtoa(cfg%dual_tol) // ', tol_h2 = ' // &
       rtoa(cfg%dual_tol_h2) // ', max_iter = ' // itoa(cfg%dual_max_iter) // ', ordering = ''' // &
       trim(cfg%dual_ordering) // ''', inner = ''' // trim(cfg%dual_inner) // ''', particular = ''' // &
-      trim(cfg%dual_particular) // ''', space = ''' // trim(cfg%dual_space) // ''' /'
+      trim(cfg%dual_particular) // ''', space = ''' // trim(cfg%dual_space) // ''', algebraic_share = ' // &
+      rtoa(cfg%dual_algebraic_share) // ' /'
     n = n + 3
     if (cfg%adapt_enabled) then
       fixed(n + 1) = '&adapt enabled = .true., theta = ' // rtoa(cfg%adapt_theta) // ', tol = ' // &
@@ -1011,9 +1015,9 @@ contains
     character(len=len(assign) + 16) :: rec(size(assign) + 2)
     logical :: enabled
     character(len=wide) :: method, ordering, inner, particular, space
-    real(dp) :: rho, tol, tol_h2
+    real(dp) :: rho, tol, tol_h2, algebraic_share
     integer :: max_iter, k
-    namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering, inner, particular, space
+    namelist /dual/ enabled, method, rho, tol, tol_h2, max_iter, ordering, inner, particular, space, algebraic_share
     logical :: saved_halting(size(ieee_usual))
     rec(1) = '&dual'
     do k = 1, size(assign)
@@ -1031,11 +1035,12 @@ contains
     inner = cfg%dual_inner
     particular = cfg%dual_particular
     space = cfg%dual_space
+    algebraic_share = cfg%dual_algebraic_share
     call fp_traps_off(saved_halting)
     read (rec, nml=dual, iostat=ios, iomsg=msg)
     call ieee_set_halting_mode(ieee_usual, saved_halting)
     if (ios /= 0) return
-    if (.not. all(ieee_is_finite([rho, tol, tol_h2]))) then
+    if (.not. all(ieee_is_finite([rho, tol, tol_h2, algebraic_share]))) then
       call bad_value('a finite real number', ios, msg)
       return
     end if
@@ -1055,6 +1060,7 @@ contains
     cfg%dual_inner = inner(1:len(cfg%dual_inner))
     cfg%dual_particular = particular(1:len(cfg%dual_particular))
     cfg%dual_space = space(1:len(cfg%dual_space))
+    cfg%dual_algebraic_share = algebraic_share
   end subroutine read_dual_group
 
   !> Read the assignments of the &adapt group into cfg.
@@ -1342,6 +1348,9 @@ contains
     else if (.not. any(cfg%dual_space == [character(len=16) :: 'hdiv', 'paper'])) then
       call set_error(st, DS_ERR_INPUT, where // '&dual space = "' // trim(cfg%dual_space) // &
         '"; expected hdiv (Raviart-Thomas of order 1, the default) or paper (the continuous P1 fields of Section 3)')
+    else if (.not. (cfg%dual_algebraic_share >= 0.0_dp .and. cfg%dual_algebraic_share < 1.0_dp)) then
+      call set_error(st, DS_ERR_INPUT, where // '&dual algebraic_share = ' // rtoa(cfg%dual_algebraic_share) // &
+        '; expected 0 <= algebraic_share < 1 (the share of est the dual solve of a level may leave; 0: solve exactly)')
     end if
     if (st%code == 0) call validate_adapt(cfg, where, st)
   end subroutine validate

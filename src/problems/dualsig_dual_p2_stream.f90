@@ -112,7 +112,9 @@ module dualsig_dual_p2_stream
     !> V-cycle (mg_settings_t%krylov), whose energy contraction there is only about 0.3-0.4 per
     !> V-cycle; CG's per iteration was 0.03-0.04 on adaptive steps of p2_contact (7 iterations
     !> where the V-cycles took 7-10 to the algebraic share).  The geometric grids keep the
-    !> plain V-cycles (7 to 1e-8 at every level).
+    !> plain V-cycles (7 to 1e-8 at every level) when solved to tol; with est_tol, CG too,
+    !> for its energy stop (2 iterations to the share 1e-3 at level 9 of p2_contact, where the
+    !> V-cycles took 5 to tol).
     logical :: krylov = .true.
   end type stream_settings_t
 
@@ -292,7 +294,7 @@ contains
     ms%fmg_cycles = merge(1, 0, all(z == 0.0_dp))
     max_iter_default = ms%max_iter
     res%p1_coarse = .false.
-    ms%krylov = settings%krylov .and. .not. res%geometric
+    ms%krylov = settings%krylov .and. (.not. res%geometric .or. settings%est_tol > 0.0_dp)
     if (.not. res%geometric .and. try_p1) then
       call p1_aggregated_hierarchy(mesh, kz, pz, h, res%p1_coarse)
       if (res%p1_coarse) then
