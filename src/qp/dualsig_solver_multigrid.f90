@@ -19,9 +19,8 @@
 !> One iteration, from the iterate x:
 !>  1. a symmetric projected Gauss-Seidel sweep (forward, backward; exact per node for
 !>     bounds; `sweeps` half-sweeps);
-!>  2. the residual r = F - A x, kept by the last sweep as it goes (A symmetric: no product
-!>     with A), and the KKT test (the stopping criterion of every qp solver, `kkt_residual`,
-!>     computed from r; confirmed on a residual computed afresh before the solve stops);
+!>  2. the residual r = F - A x and the KKT test (the stopping criterion of every qp solver,
+!>     `kkt_residual`, computed from r without another product);
 !>  3. truncation: the fixed unknowns and the bounded unknowns at their bound are frozen
 !>     (weight 0, the truncated basis of TNNMG);
 !>  4. a linear correction v on the free unknowns: one V(3,3) cycle (Gauss-Seidel,
@@ -41,9 +40,8 @@
 !> Every step decreases the energy (monotone), so the iteration converges from any start;
 !> once the contact set is found it is linear multigrid with h-independent rates (the KKT
 !> residual falls by about 20 per iteration on the P1 and P2 scenes).
-!> Work per iteration: four sweeps and about two products' worth of vector work on the
-!> finest grid, a third of that on the coarser ones (each grid's residual is kept by its last
-!> pre-sweep too); storage: the coarse
+!> Work per iteration: four sweeps, one product with A and some vector work on the finest
+!> grid, a third of that on the coarser ones; storage: the coarse
 !> operators (about a third of A), the prolongations and two vectors and two masks on the
 !> finest grid: about 80 bytes per unknown (mg_memory_bytes); a cold start holds, while it
 !> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
@@ -542,7 +540,6 @@ contains
     logical, allocatable :: frozen(:), frozen_prev(:)
     real(dp) :: den
     integer :: n, ierr, nchanged, k
-    logical :: confirmed
 
     call check_input(h, a, f, kind, bnd, x, settings, st)
     if (.not. is_ok(st)) return
@@ -580,22 +577,17 @@ contains
       return
     end if
     frozen_prev = .false.
-    confirmed = .false.
     do
-      call presmooth_residual(a, f, kind, bnd, x, settings%sweeps, r)
-      call kkt_of_residual(a, kind, bnd, x, r, frozen_prev, frozen, res%kkt_residual, nchanged)
+      do k = 1, settings%sweeps
+        call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 1)
+      end do
+      call residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, res%kkt_residual, nchanged)
       if (den > 0.0_dp) res%kkt_residual = res%kkt_residual / den
       if (.not. (res%kkt_residual <= huge(1.0_dp))) then
         call set_error(st, DS_ERR_NUMERIC, 'multigrid: the iterate is no longer finite')
         exit
       end if
       res%converged = res%kkt_residual <= settings%tol
-      if (res%converged) then         ! the test again on r = F - A x computed afresh
-        call residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, res%kkt_residual, nchanged)
-        if (den > 0.0_dp) res%kkt_residual = res%kkt_residual / den
-        res%converged = res%kkt_residual <= settings%tol
-        confirmed = res%converged
-      end if
       if (res%converged .or. res%iterations >= settings%max_iter) exit
       res%iterations = res%iterations + 1
       if (res%iterations == 1) then
@@ -617,7 +609,7 @@ contains
       res%kkt_residual = huge(1.0_dp)
       return
     end if
-    if (.not. confirmed) res%kkt_residual = kkt_residual(a, f, kind, bnd, x, r)
+    res%kkt_residual = kkt_residual(a, f, kind, bnd, x, r)
     res%converged = res%kkt_residual <= settings%tol
     if (.not. res%converged) call set_warning(st, DS_WARN_NOT_CONVERGED, 'multigrid: not converged after ' // &
       itoa(res%iterations) // ' iterations (KKT residual above the tolerance)')
@@ -890,9 +882,9 @@ contains
     end if
   end subroutine check_input
 
-  !> r = F - A x, the unscaled KKT residual of dualsig_qp_types (`kkt`, to be divided by
-  !> ||F||), the frozen unknowns and how many of them differ from `frozen_prev`
-  !> (kkt_of_residual).
+  !> In one pass: r = F - A x, the unscaled KKT residual of dualsig_qp_types (`kkt`, to be
+  !> divided by ||F||), the frozen unknowns (fixed, or bounded and at the bound) and how many
+  !> of them differ from `frozen_prev`.
   pure subroutine residual_kkt(a, f, kind, bnd, x, frozen_prev, r, frozen, kkt, nchanged)
     type(csr_t), intent(in) :: a
     real(dp), intent(in) :: f(:)
@@ -903,33 +895,22 @@ contains
     logical, intent(out) :: frozen(:)
     real(dp), intent(out) :: kkt
     integer, intent(out) :: nchanged
-    call csr_matvec(a, x, r)
-    r = f - r
-    call kkt_of_residual(a, kind, bnd, x, r, frozen_prev, frozen, kkt, nchanged)
-  end subroutine residual_kkt
-
-  !> From r = F - A x: the unscaled KKT residual of dualsig_qp_types (`kkt`), the frozen
-  !> unknowns (fixed, or bounded and at the bound) and how many of them differ from
-  !> `frozen_prev`.
-  pure subroutine kkt_of_residual(a, kind, bnd, x, r, frozen_prev, frozen, kkt, nchanged)
-    type(csr_t), intent(in) :: a
-    integer, intent(in) :: kind(:)
-    real(dp), intent(in) :: bnd(:), x(:), r(:)
-    logical, intent(in) :: frozen_prev(:)
-    logical, intent(out) :: frozen(:)
-    real(dp), intent(out) :: kkt
-    integer, intent(out) :: nchanged
     type(norm_acc_t) :: num
-    real(dp) :: g
-    integer :: i
+    real(dp) :: g, s
+    integer :: i, p
     nchanged = 0
     do i = 1, a%n
+      s = f(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s - a%val(p) * x(a%col(p))
+      end do
+      r(i) = s
       select case (kind(i))
       case (BOUND_FREE)
-        g = -r(i)
+        g = -s
         frozen(i) = .false.
       case (BOUND_LOWER)
-        g = min(-r(i), a%val(a%diag(i)) * (x(i) - bnd(i)))
+        g = min(-s, a%val(a%diag(i)) * (x(i) - bnd(i)))
         frozen(i) = x(i) <= bnd(i)
       case default
         g = 0.0_dp
@@ -939,28 +920,7 @@ contains
       if (frozen(i) .neqv. frozen_prev(i)) nchanged = nchanged + 1
     end do
     kkt = norm_acc_value(num)
-  end subroutine kkt_of_residual
-
-  !> `sweeps` projected Gauss-Seidel sweeps (forward, backward, ...) and r = F - A x of the
-  !> result: the last sweep keeps r as it goes (sweep_projected_residual), so no product
-  !> with A is needed; sweeps = 0: r computed by one.
-  pure subroutine presmooth_residual(a, f, kind, bnd, x, sweeps, r)
-    type(csr_t), intent(in) :: a
-    real(dp), intent(in) :: f(:), bnd(:)
-    integer, intent(in) :: kind(:), sweeps
-    real(dp), intent(inout) :: x(:)
-    real(dp), intent(out) :: r(:)
-    integer :: k
-    if (sweeps <= 0) then
-      call csr_matvec(a, x, r)
-      r = f - r
-      return
-    end if
-    do k = 1, sweeps - 1
-      call sweep_projected(a, f, kind, bnd, x, mod(k, 2) == 1)
-    end do
-    call sweep_projected_residual(a, f, kind, bnd, x, r, mod(sweeps, 2) == 1)
-  end subroutine presmooth_residual
+  end subroutine residual_kkt
 
   !> The coarse operators' patterns and the vectors of grids 1..L-1 (once per hierarchy).
   !> The pattern of P^T A P is the edge graph of the coarse mesh when A has the pattern of
@@ -1367,15 +1327,11 @@ contains
         end do
         return
       end if
-      if (nu > 0) then
-        do k = 1, nu - 1
-          call gs_linear(g%a, g%b, g%x, mod(k, 2) == 1)
-        end do
-        call gs_linear_residual(g%a, g%b, g%x, g%r, mod(nu, 2) == 1)
-      else
-        call csr_matvec(g%a, g%x, g%r)
-        g%r = g%b - g%r
-      end if
+      do k = 1, nu
+        call gs_linear(g%a, g%b, g%x, mod(k, 2) == 1)
+      end do
+      call csr_matvec(g%a, g%x, g%r)
+      g%r = g%b - g%r
       call restrict(h%transfer(l), g%r, h%grid(l - 1)%b)
       call vcycle(h, l - 1, nu)
       call prolong_add(h%transfer(l), h%grid(l - 1)%x, g%x)
@@ -1413,34 +1369,6 @@ contains
       x(i) = x(i) + s / d
     end do
   end subroutine gs_linear
-
-  !> gs_linear that also leaves r = b - A x of the returned x (A symmetric; as
-  !> sweep_projected_residual).
-  pure subroutine gs_linear_residual(a, b, x, r, forward)
-    type(csr_t), intent(in) :: a
-    real(dp), intent(in) :: b(:)
-    real(dp), intent(inout) :: x(:)
-    real(dp), intent(out) :: r(:)
-    logical, intent(in) :: forward
-    integer :: i, p, i0, i1, di
-    real(dp) :: s, d, dx
-    i0 = merge(1, a%n, forward)
-    i1 = merge(a%n, 1, forward)
-    di = merge(1, -1, forward)
-    do i = i0, i1, di
-      s = b(i)
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        s = s - a%val(p) * x(a%col(p))
-      end do
-      d = a%val(a%diag(i))
-      r(i) = s
-      if (d <= 0.0_dp) cycle
-      dx = s / d
-      x(i) = x(i) + dx
-      r(i) = s - d * dx
-      call correct_swept_rows(a, i, forward, dx, r)
-    end do
-  end subroutine gs_linear_residual
 
   !> bc = P^T rf.
   pure subroutine restrict(t, rf, bc)
@@ -1603,63 +1531,6 @@ contains
       s = s + a%val(p) * y(a%col(p))
     end do
   end function row_dot
-
-  !> sweep_projected that also leaves r = F - A x of the returned x.  A is symmetric (the
-  !> QP's matrix): the residual of a row is taken at its own update, and each later update
-  !> dx_i corrects the rows swept before it through row i itself (a_ji = a_ij), which the
-  !> pass has just read (correct_swept_rows).  Fixed unknowns are not touched, their residual is computed.
-  pure subroutine sweep_projected_residual(a, f, kind, bnd, x, r, forward)
-    type(csr_t), intent(in) :: a
-    real(dp), intent(in) :: f(:)
-    integer, intent(in) :: kind(:)
-    real(dp), intent(in) :: bnd(:)
-    real(dp), intent(inout) :: x(:)
-    real(dp), intent(out) :: r(:)
-    logical, intent(in) :: forward
-    integer :: i, p, i0, i1, di
-    real(dp) :: s, y, d, dx
-    i0 = merge(1, a%n, forward)
-    i1 = merge(a%n, 1, forward)
-    di = merge(1, -1, forward)
-    do i = i0, i1, di
-      s = f(i)
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        s = s - a%val(p) * x(a%col(p))
-      end do
-      if (kind(i) == BOUND_FIXED) then
-        r(i) = s
-        cycle
-      end if
-      d = a%val(a%diag(i))
-      y = x(i) + s / d
-      if (kind(i) == BOUND_LOWER) y = max(y, bnd(i))
-      dx = y - x(i)
-      x(i) = y
-      r(i) = s - d * dx
-      if (dx == 0.0_dp) cycle
-      call correct_swept_rows(a, i, forward, dx, r)
-    end do
-  end subroutine sweep_projected_residual
-
-  !> r_j = r_j - a_ij dx for the rows j swept before row i: j < i forward, j > i backward,
-  !> i.e. the entries of row i before resp. after its diagonal (columns sorted in a row).
-  pure subroutine correct_swept_rows(a, i, forward, dx, r)
-    type(csr_t), intent(in) :: a
-    integer, intent(in) :: i
-    logical, intent(in) :: forward
-    real(dp), intent(in) :: dx
-    real(dp), intent(inout) :: r(:)
-    integer :: p
-    if (forward) then
-      do p = a%rowptr(i), a%diag(i) - 1
-        r(a%col(p)) = r(a%col(p)) - a%val(p) * dx
-      end do
-    else
-      do p = a%diag(i) + 1, a%rowptr(i + 1) - 1
-        r(a%col(p)) = r(a%col(p)) - a%val(p) * dx
-      end do
-    end if
-  end subroutine correct_swept_rows
 
   !> One projected Gauss-Seidel sweep, in increasing (forward) or decreasing order:
   !> x_i <- max(x_i + (F_i - (A x)_i) / A_ii, bnd_i) for the bounded unknowns, without the
