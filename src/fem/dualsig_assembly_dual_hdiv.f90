@@ -23,7 +23,7 @@ module dualsig_assembly_dual_hdiv
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_sparse, only: csr_t, csr_pattern_from_cliques, csr_add_block, rect_t, sort_row_by_column
+  use dualsig_sparse, only: csr_t, rect_t, sort_row_by_column, sort_small_ints
   use dualsig_elements_rt1, only: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, &
                                   rt1_matrix_degree, rt1_nbasis, rt1_nside, rt1_reference_t, rt1_reference
   use dualsig_status, only: status_t
@@ -144,19 +144,12 @@ contains
     type(load_data_t), intent(in), optional :: load
     !> (2 nedge) side unknown i of the field vector is unknown renumber(i) of the system
     integer, intent(in), optional :: renumber(:)
-    integer, allocatable :: cliques(:,:)
     type(rt1_reference_t) :: ref
     type(rt1_geometry_t) :: g
     real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), se(rt1_nside, rt1_nside), ce(rt1_nside)
     real(dp) :: sgn(rt1_nside), fq(rule%n), ue(3), p(2), centroid(2), osc_sq
     integer :: t, i, q, dofs(rt1_nside), ist
-    allocate (cliques(rt1_nside, mesh%ntri), stat=ist)
-    if (alloc_failed(ist, st, 'the RT1 element unknowns', rt1_nside * mesh%ntri, BYTES_INT)) return
-    do t = 1, mesh%ntri
-      call hdiv_side_dofs(mesh, t, cliques(:, t), sgn)
-      if (present(renumber)) cliques(:, t) = renumber(cliques(:, t))
-    end do
-    call csr_pattern_from_cliques(2 * mesh%nedge, cliques, sys%a, st)
+    call hdiv_pattern(mesh, sys%a, st, renumber)
     if (has_failed(st)) return
     allocate (sys%b(2 * mesh%nedge), sys%rec_k(2, rt1_nside, mesh%ntri), sys%rec_d(2, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the condensed RT1 system', 2 * mesh%nedge + (2 * rt1_nside + 2) * mesh%ntri, &
@@ -192,9 +185,92 @@ contains
         sys%rec_k(:, i, t) = sys%rec_k(:, i, t) * sgn(i)
       end do
       sys%b(dofs) = sys%b(dofs) + sgn * ce
-      call csr_add_block(sys%a, dofs, se)
+      call add_element_rows(sys%a, dofs, se)
     end do
   end subroutine assemble_dual_hdiv
+
+  !> a(dofs, dofs) += se, the rows of dofs in the pattern of hdiv_pattern: every entry of
+  !> such a row is matched against the 6 columns without a branch (a row has at most 10
+  !> entries; faster than a search per entry).
+  pure subroutine add_element_rows(a, dofs, se)
+    type(csr_t), intent(inout) :: a
+    integer, intent(in) :: dofs(rt1_nside)
+    real(dp), intent(in) :: se(rt1_nside, rt1_nside)
+    integer :: r, c, p
+    real(dp) :: v
+    do r = 1, rt1_nside
+      do p = a%rowptr(dofs(r)), a%rowptr(dofs(r) + 1) - 1
+        v = 0.0_dp
+        do c = 1, rt1_nside
+          v = v + merge(se(r, c), 0.0_dp, a%col(p) == dofs(c))
+        end do
+        a%val(p) = a%val(p) + v
+      end do
+    end do
+  end subroutine add_element_rows
+
+  !> The pattern of the condensed system (values 0), built from the mesh: the row of a side
+  !> unknown of edge e has the columns of the side unknowns of the triangles at e (e's own
+  !> two and the two other edges' of each triangle: 10 in the interior, 6 on the
+  !> boundary), the union of the element cliques at it.  renumber (optional) as in
+  !> assemble_dual_hdiv.  Out of memory: DS_ERR_MEMORY in st.
+  subroutine hdiv_pattern(mesh, a, st, renumber)
+    type(mesh_t), intent(in) :: mesh
+    type(csr_t), intent(out) :: a
+    type(status_t), intent(inout) :: st
+    integer, intent(in), optional :: renumber(:)
+    integer, parameter :: max_row = 2 + 4 * 2
+    integer :: row(max_row), e, j, k, side, t, ee, i, len, nnz, ist, r
+    a%n = 2 * mesh%nedge
+    allocate (a%rowptr(a%n + 1), a%diag(a%n), stat=ist)
+    if (alloc_failed(ist, st, 'the rows of the condensed RT1 system', 2 * a%n + 1, BYTES_INT)) return
+    a%rowptr(1) = 1
+    a%rowptr(2:) = 0
+    do e = 1, mesh%nedge
+      len = merge(max_row, max_row - 4, mesh%edge_tri(2, e) /= 0)
+      do j = 1, 2
+        r = 2 * (e - 1) + j
+        if (present(renumber)) r = renumber(r)
+        a%rowptr(r + 1) = len
+      end do
+    end do
+    do r = 1, a%n
+      a%rowptr(r + 1) = a%rowptr(r + 1) + a%rowptr(r)
+    end do
+    nnz = a%rowptr(a%n + 1) - 1
+    allocate (a%col(nnz), a%val(nnz), stat=ist)
+    if (alloc_failed(ist, st, 'the entries of the condensed RT1 system', 3 * nnz, BYTES_INT)) return
+    a%val = 0.0_dp
+    do e = 1, mesh%nedge
+      len = 2
+      row(1:2) = [2 * e - 1, 2 * e]
+      do side = 1, 2
+        t = mesh%edge_tri(side, e)
+        if (t == 0) cycle
+        do k = 1, 3
+          ee = mesh%tri_edge(k, t)
+          if (ee == e) cycle
+          row(len + 1:len + 2) = [2 * ee - 1, 2 * ee]
+          len = len + 2
+        end do
+      end do
+      if (present(renumber)) row(1:len) = renumber(row(1:len))
+      call sort_small_ints(row(1:len))
+      do j = 1, 2
+        r = row_of(2 * (e - 1) + j)
+        a%col(a%rowptr(r):a%rowptr(r) + len - 1) = row(1:len)
+        do i = a%rowptr(r), a%rowptr(r) + len - 1
+          if (a%col(i) == r) a%diag(r) = i
+        end do
+      end do
+    end do
+  contains
+    pure integer function row_of(i)
+      integer, intent(in) :: i
+      row_of = i
+      if (present(renumber)) row_of = renumber(i)
+    end function row_of
+  end subroutine hdiv_pattern
 
   !> The field vector (hdiv_nfield) from the side unknowns xs (2 nedge): the interior
   !> unknowns of every triangle from its condensation.
@@ -318,88 +394,99 @@ contains
   !> (2 fine%nedge) x (2 coarse%nedge) matrix p: the coarse field of side unknowns xs with
   !> its interior unknowns -rec_k xs (the homogeneous condensation of the coarse level,
   !> hdiv_system_t%rec_k), prolongated as in hdiv_prolongate, side unknowns kept.  A row
-  !> depends on the 6 side unknowns of the parent triangle; built row by row in place
-  !> (columns sorted), without the entries that vanish exactly (a fine edge inside a coarse
+  !> depends on the 6 side unknowns of the parent triangle; built row by row (columns
+  !> sorted), without the entries that vanish exactly (a fine edge inside a coarse
   !> side sees only that side's 2 unknowns: the others have zero normal trace there, and
   !> their computed values, rounding of 0, are below prolongation_zero).
   !> With xc (hdiv_nfield of coarse) and xf (of fine): also the side unknowns of
   !> hdiv_prolongate of xc in xf, from the same basis values (hdiv_prolongate_interior
   !> completes xf).  Out of memory: DS_ERR_MEMORY in st (without st the program stops, see
   !> dualsig_alloc).
-  subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p, st, xc, xf)
+  subroutine hdiv_prolongation_matrix(coarse, fine, rec_k, p, st, xc, xf, row_perm, col_perm)
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: rec_k(:,:,:)
     type(rect_t), intent(out) :: p
     type(status_t), intent(inout) :: st
     real(dp), intent(in), optional :: xc(:)
     real(dp), intent(inout), optional :: xf(:)
+    !> (2 fine%nedge, 2 coarse%nedge) the numberings of the levels' matrices: fine side
+    !> unknown i is row row_perm(i) of p, coarse side unknown j column col_perm(j)
+    integer, intent(in), optional :: row_perm(:), col_perm(:)
     type(rt1_geometry_t) :: gc
     real(dp) :: psi(2, rt1_nbasis, 6), dpsi(rt1_nbasis), nu(2), w(rt1_nbasis), sgn(rt1_nside)
-    real(dp) :: v(rt1_nside), c(rt1_nbasis), pos(rt1_nside)
-    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), sorted(rt1_nside), i, row, ist, ch, ip, q
+    real(dp) :: v(rt1_nside), c(rt1_nbasis), pos(rt1_nside), big
+    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), sorted(rt1_nside), i, row, ist, ch, ip
+    integer :: pass, q
+    logical :: fill
     p%m = 2 * fine%nedge
     p%n = 2 * coarse%nedge
-    allocate (p%rowptr(p%m + 1), p%col(rt1_nside * p%m), p%val(rt1_nside * p%m), stat=ist)
-    if (alloc_failed(ist, st, 'the RT1 prolongation', (3 * rt1_nside + 1) * p%m, BYTES_INT)) return
-    do tc = 1, coarse%ntri
-      ! per coarse triangle: the basis at its vertices and side midpoints (the ends of every
-      ! fine edge inside it), its unknowns in increasing order (the columns of its rows)
-      gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
-      call hdiv_side_dofs(coarse, tc, cdofs, sgn)
-      ! the permutation that sorts cdofs (the positions carried along as exact small reals)
-      sorted = cdofs
-      pos = [(real(i, dp), i = 1, rt1_nside)]
-      call sort_row_by_column(sorted, pos)
-      order = nint(pos)
-      do ip = 1, 6
-        call rt1_values(gc, child_point(:, ip), psi(:, :, ip), dpsi)
-      end do
-      if (present(xc)) c = hdiv_local_coefficients(coarse, xc, tc)
-      do ch = 1, 4
-        tf = 4 * tc - 4 + ch
-        do k = 1, 3
-          e = fine%tri_edge(k, tf)
-          if (fine%edge_tri(1, e) /= tf) cycle
-          nu = side_normal(fine, tf, k)
-          do j = 1, 2
-            ! the point of the parent at fine node edge_nodes(j, e): vertex k or k+1 of child ch
-            ip = child_vertex(merge(k, mod(k, 3) + 1, fine%edge_nodes(j, e) == fine%tri(k, tf)), ch)
-            w = matmul(nu, psi(:, :, ip))
-            if (present(xc) .and. present(xf)) xf(2 * e - 2 + j) = dot_product(w, c)
-            do i = 1, rt1_nside
-              v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
+    allocate (p%rowptr(p%m + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 prolongation', p%m + 1, BYTES_INT)) return
+    p%rowptr = 0
+    ! pass 1 counts the entries of every row (p%rowptr(row + 1)), pass 2 stores them: the
+    ! arrays are allocated at their size, and the rows are computed twice (cheaper than
+    ! touching memory of 6 entries per row on this kind of machine: doc/performance.md)
+    do pass = 1, 2
+      fill = pass == 2
+      if (fill) then
+        p%rowptr(1) = 1
+        do row = 1, p%m
+          p%rowptr(row + 1) = p%rowptr(row + 1) + p%rowptr(row)
+        end do
+        allocate (p%col(p%rowptr(p%m + 1) - 1), p%val(p%rowptr(p%m + 1) - 1), stat=ist)
+        if (alloc_failed(ist, st, 'the RT1 prolongation', 3 * (p%rowptr(p%m + 1) - 1), BYTES_INT)) return
+      end if
+      do tc = 1, coarse%ntri
+        ! per coarse triangle: the basis at its vertices and side midpoints (the ends of every
+        ! fine edge inside it), its unknowns in increasing order (the columns of its rows)
+        gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
+        call hdiv_side_dofs(coarse, tc, cdofs, sgn)
+        if (present(col_perm)) cdofs = col_perm(cdofs)
+        ! the permutation that sorts cdofs (the positions carried along as exact small reals)
+        sorted = cdofs
+        pos = [(real(i, dp), i = 1, rt1_nside)]
+        call sort_row_by_column(sorted, pos)
+        order = nint(pos)
+        do ip = 1, 6
+          call rt1_values(gc, child_point(:, ip), psi(:, :, ip), dpsi)
+        end do
+        if (fill .and. present(xc)) c = hdiv_local_coefficients(coarse, xc, tc)
+        do ch = 1, 4
+          tf = 4 * tc - 4 + ch
+          do k = 1, 3
+            e = fine%tri_edge(k, tf)
+            if (fine%edge_tri(1, e) /= tf) cycle
+            nu = side_normal(fine, tf, k)
+            do j = 1, 2
+              ! the point of the parent at fine node edge_nodes(j, e): vertex k or k+1 of child ch
+              ip = child_vertex(merge(k, mod(k, 3) + 1, fine%edge_nodes(j, e) == fine%tri(k, tf)), ch)
+              w = matmul(nu, psi(:, :, ip))
+              if (fill .and. present(xc) .and. present(xf)) xf(2 * e - 2 + j) = dot_product(w, c)
+              do i = 1, rt1_nside
+                v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
+              end do
+              v = v(order)
+              row = 2 * e - 2 + j
+              if (present(row_perm)) row = row_perm(row)
+              ! without the entries that are rounded zeros
+              big = maxval(abs(v))
+              if (.not. fill) then
+                p%rowptr(row + 1) = count(abs(v) > prolongation_zero * big)
+                cycle
+              end if
+              q = p%rowptr(row)
+              do i = 1, rt1_nside
+                if (.not. abs(v(i)) > prolongation_zero * big) cycle
+                p%col(q) = cdofs(order(i))
+                p%val(q) = v(i)
+                q = q + 1
+              end do
             end do
-            row = 2 * e - 2 + j
-            q = rt1_nside * (row - 1)
-            p%col(q + 1:q + rt1_nside) = cdofs(order)
-            p%val(q + 1:q + rt1_nside) = v(order)
           end do
         end do
       end do
     end do
-    call drop_exact_zeros(p)
   end subroutine hdiv_prolongation_matrix
-
-  !> Compact p (rt1_nside entries per row, stored at 6 (row-1) + 1 ..) to its entries above
-  !> prolongation_zero times the largest of their row; sets p%rowptr.
-  pure subroutine drop_exact_zeros(p)
-    type(rect_t), intent(inout) :: p
-    integer :: row, i, q, nnz
-    real(dp) :: big
-    nnz = 0
-    p%rowptr(1) = 1
-    do row = 1, p%m
-      q = rt1_nside * (row - 1)
-      big = maxval(abs(p%val(q + 1:q + rt1_nside)))
-      do i = q + 1, q + rt1_nside
-        if (.not. abs(p%val(i)) > prolongation_zero * big) cycle
-        nnz = nnz + 1
-        p%col(nnz) = p%col(i)
-        p%val(nnz) = p%val(i)
-      end do
-      p%rowptr(row + 1) = nnz + 1
-    end do
-  end subroutine drop_exact_zeros
 
   !> Barycentric coordinates of the point p in the triangle of g.
   pure function barycentric(g, p) result(bary)

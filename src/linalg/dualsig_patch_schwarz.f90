@@ -1,5 +1,5 @@
-!> Schwarz smoothing with small dense blocks ("patches"), the symmetric multigrid V-cycle
-!> built on it, and the preconditioned conjugate gradient method on a subset of the unknowns.
+!> Schwarz smoothing with small dense blocks ("patches"), the multigrid V-cycle built on
+!> it, and the flexible preconditioned conjugate gradient method on a subset of the unknowns.
 !>
 !> A patch is a list of unknowns; a multiplicative sweep updates z_P = z_P + A_PP^{-1}
 !> (r - A z)_P patch after patch, each block factorised once by a dense Cholesky
@@ -10,13 +10,13 @@
 !>
 !> A hierarchy of nested spaces (mg_hierarchy_t: level matrices A_l, prolongations P_l from
 !> level l-1 to l, the patches of every level, A_1 factorised by CHOLMOD) gives the
-!> symmetric V-cycle used as preconditioner: a forward sweep, the coarse correction P_l
-!> (V-cycle of level l-1) P_l^T, a backward sweep.  Every level has a set of `held`
-!> unknowns (zero in its correction space); mg_hold sets them from the finest level's free
-!> unknowns and takes them out of the patches (the patches with `bounded` unknowns are
-!> factorised again).  A coarse space must hold what the finer one holds after prolongation
-!> (e.g. a zero normal trace on a boundary), or the truncated coarse corrections do not
-!> match the coarse matrices.
+!> V-cycle used as preconditioner: a forward sweep, the coarse correction P_l (V-cycle of
+!> level l-1) P_l^T, a second forward sweep (not symmetric: the CG is flexible).  Every
+!> level has a set of `held` unknowns (zero in its correction space); mg_hold sets them
+!> from the finest level's free unknowns and takes them out of the patches (the patches
+!> with `bounded` unknowns are factorised again).  A coarse space must hold what the
+!> finer one holds after prolongation (e.g. a zero normal trace on a boundary), or the
+!> truncated coarse corrections do not match the coarse matrices.
 !>
 !> pcg_quadratic minimises J(x) = 1/2 x^T A x - b^T x (A the finest level's matrix) over
 !> the unknowns marked free (the others keep their values; the preconditioner is truncated
@@ -172,10 +172,13 @@ contains
     h%lev = mg_level_t()
   end subroutine mg_free
 
-  !> lev(l)%z = B lev(l)%r, B the symmetric V-cycle of level l: a forward multiplicative
-  !> sweep over the patches, the coarse correction P_l (V-cycle of level l-1) P_l^T of the
-  !> residual, a backward sweep (the adjoint of the first: B is symmetric).  r is zero on
-  !> the held unknowns, and so is z.
+  !> lev(l)%z = B lev(l)%r, B the V-cycle of level l: a forward multiplicative sweep over
+  !> the patches, the coarse correction P_l (V-cycle of level l-1) P_l^T of the residual,
+  !> and a second forward sweep.  B is not symmetric (the symmetric cycle's second sweep
+  !> runs backward, which costs 2.3 times a forward sweep here: the patches' factors and
+  !> rows are laid out in the forward order, see doc/performance.md), so pcg_quadratic is
+  !> a flexible CG.  Each sweep and the coarse correction reduce the A-norm of the error,
+  !> so r^T B r > 0 for r /= 0.  r is zero on the held unknowns, and so is z.
   recursive subroutine vcycle(h, l)
     type(mg_hierarchy_t), intent(inout) :: h
     integer, intent(in) :: l
@@ -202,7 +205,7 @@ contains
       do i = 1, lv%a%n
         if (.not. lv%held(i)) lv%z(i) = lv%z(i) + lv%w(i)
       end do
-      call patch_sweep(lv%a, lv%ps, lv%r, lv%z, .false.)
+      call patch_sweep(lv%a, lv%ps, lv%r, lv%z, .true.)
     end associate
   end subroutine vcycle
 
@@ -422,8 +425,12 @@ contains
     end do
   end subroutine dense_cholesky_packed
 
-  !> Preconditioned CG (the V-cycle of h) for min J(x) = 1/2 x^T A x - b^T x, A the finest
-  !> matrix of h, over the unknowns with free(i); the others keep their values in x.  Stops
+  !> Flexible preconditioned CG (the V-cycle of h, not symmetric) for min J(x) =
+  !> 1/2 x^T A x - b^T x, A the finest matrix of h, over the unknowns with free(i); the
+  !> others keep their values in x.  Each step is an exact line search along p, and the
+  !> next direction is the preconditioned residual made A-conjugate to p (Notay's flexible
+  !> CG with one direction kept: beta = -(z^T A p) / (p^T A p)), so J decreases in every
+  !> step by (r^T p)^2 / (2 p^T A p).  Stops
   !> when the decrease of J in a step is at most rel (J(x) - j_floor), or, with ratio > 0
   !> (the step_ratio of an earlier solve with the same kind of preconditioner, e.g. the
   !> previous level's: the V-cycle's contraction does not depend on h), when the NEXT
@@ -441,7 +448,7 @@ contains
     type(status_t), intent(inout) :: st
     real(dp), intent(in), optional :: ratio
     real(dp), allocatable :: r(:), p(:), ap(:)
-    real(dp) :: rz, rz_new, alpha, beta, pap, jx
+    real(dp) :: rz, alpha, beta, pap, jx
     integer :: k, nf, ist
     nf = h%nlevel
     associate (a => h%lev(nf)%a)
@@ -485,9 +492,9 @@ contains
       if (k == max_iter) exit
       h%lev(nf)%r = r
       call vcycle(h, nf)
-      rz_new = dot_product(r, h%lev(nf)%z)
-      beta = rz_new / rz
-      rz = rz_new
+      ! r is orthogonal to the last p (exact line search), so r^T p_new = r^T z
+      beta = -dot_product(h%lev(nf)%z, ap) / pap
+      rz = dot_product(r, h%lev(nf)%z)
       p = h%lev(nf)%z + beta * p
     end do
     res%j_value = jx

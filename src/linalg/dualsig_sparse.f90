@@ -11,7 +11,8 @@ module dualsig_sparse
   private
 
   public :: csr_t, csr_pattern_from_edges, csr_pattern_from_cliques, csr_add, csr_add_block, &
-            csr_get, csr_matvec, csr_is_symmetric, csr_nnz, csr_set_row_pattern, sort_small_ints, csr_move
+            csr_get, csr_matvec, csr_is_symmetric, csr_nnz, csr_set_row_pattern, sort_small_ints, csr_move, &
+            csr_quadratic_change
   public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t, sort_row_by_column, rect_move
 
   type :: csr_t
@@ -312,6 +313,26 @@ contains
       y(i) = s
     end do
   end subroutine csr_matvec
+
+  !> J(x_new) - J(x_old) for J(x) = 1/2 x^T A x - b^T x, A symmetric: with d = x_new - x_old,
+  !> x_new^T A x_new - x_old^T A x_old = d^T A (x_new + x_old), so the change is the sum over
+  !> the i with d_i /= 0 of d_i ((A (x_new + x_old))_i / 2 - b_i): only the rows of the
+  !> unknowns that changed are read (a local update costs its support, not a product).
+  pure real(dp) function csr_quadratic_change(a, b, x_old, x_new) result(dj)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: b(:), x_old(:), x_new(:)
+    integer :: i, p
+    real(dp) :: s
+    dj = 0.0_dp
+    do i = 1, a%n
+      if (x_new(i) == x_old(i)) cycle
+      s = 0.0_dp
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s + a%val(p) * (x_new(a%col(p)) + x_old(a%col(p)))
+      end do
+      dj = dj + (x_new(i) - x_old(i)) * (0.5_dp * s - b(i))
+    end do
+  end function csr_quadratic_change
 
   !> True when |a(i,j) - a(j,i)| <= tol * sqrt(|a(i,i) a(j,j)|) for every stored entry:
   !> relative to the scale of the 2 x 2 principal block of i and j (|a(i,j)| is below it

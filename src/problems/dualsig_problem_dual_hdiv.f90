@@ -27,17 +27,17 @@
 !>   bounded unknowns are held at 0 where the complementarity prediction says so (and where
 !>   the start is 0 without u_primal), the others improved by CG preconditioned by a
 !>   V-cycle over all levels (dualsig_patch_schwarz: Arnold-Falk-Winther vertex patches,
-!>   symmetric multiplicative sweeps, the first level factorised), stopped when a step
-!>   gains less than nested_rel_decrease of the current est (computable: est =
+!>   forward multiplicative sweeps, the first level factorised; flexible CG), stopped when
+!>   a step gains less than nested_rel_decrease of the current est (computable: est =
 !>   2 (J - j_floor), see nested_floor); free bounded unknowns that went negative are then
 !>   set to 0 and held and the boundary patches relaxed once (J does not increase; at most
-!>   nested_max_rounds times).  Any feasible field gives
-!>   guaranteed bounds, so only their sharpness depends on how far the iteration went.
+!>   nested_max_rounds times).  Any feasible field gives guaranteed bounds, so only their
+!>   sharpness depends on how far the iteration went.
 module dualsig_problem_dual_hdiv
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
-  use dualsig_sparse, only: rect_t, rect_from_triplets, csr_t
+  use dualsig_sparse, only: rect_t, rect_from_triplets, csr_t, csr_quadratic_change
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_ordering_geometric, only: select_ordering
   use dualsig_spd_solver, only: cholmod_spd_t
@@ -52,7 +52,6 @@ module dualsig_problem_dual_hdiv
   use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   use dualsig_load_data, only: load_data_t
-  use dualsig_sparse, only: csr_matvec
   implicit none
   private
 
@@ -71,6 +70,10 @@ module dualsig_problem_dual_hdiv
     !> the numbering of the last level in the hierarchy: its side unknown i (field vector)
     !> is unknown perm(i) of its matrix (patch_numbering); not allocated: the identity
     integer, allocatable :: perm(:)
+    !> after a refinement: the vertex patches of the new mesh (vertex_patches, in the field's
+    !> numbering) and the numbering of its matrix (patch_numbering), in which p_next's rows
+    !> already are
+    integer, allocatable :: ptr_next(:), idx_next(:), perm_next(:)
   end type hdiv_nested_t
 
   !> Start value of a bounded unknown predicted free (contact: q.nu > 0 expected).
@@ -122,11 +125,11 @@ contains
     if (nested) inexact = nest%ready
     if (inexact) then
       ! the vertex patches of the V-cycle's smoother, and the level's unknowns numbered as
-      ! the patches first reach them, so that a patch's rows lie together in memory
-      call vertex_patches(mesh, ptr, idx, st)
-      if (.not. is_ok(st)) return
-      call patch_numbering(2 * mesh%nedge, idx, perm, st)
-      if (.not. is_ok(st)) return
+      ! the patches first reach them, so that a patch's rows lie together in memory (made
+      ! by dual_hdiv_nested_refine, the prolongation's rows in this numbering)
+      call move_alloc(nest%ptr_next, ptr)
+      call move_alloc(nest%idx_next, idx)
+      call move_alloc(nest%perm_next, perm)
       call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal, load, renumber=perm)
     else
       call assemble_dual_hdiv(mesh, f, rule, sys, st, u_primal, load)
@@ -254,7 +257,19 @@ contains
     integer :: ist
     allocate (q_next(hdiv_nfield(fine)), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated RT1 field', hdiv_nfield(fine), BYTES_REAL)) return
-    call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st, nest%q, q_next)
+    ! the fine level's patches and numbering first, so that the prolongation is built in
+    ! the numbering of the level matrices (rows: the fine one, columns: nest%perm)
+    call vertex_patches(fine, nest%ptr_next, nest%idx_next, st)
+    if (.not. is_ok(st)) return
+    call patch_numbering(2 * fine%nedge, nest%idx_next, nest%perm_next, st)
+    if (.not. is_ok(st)) return
+    if (allocated(nest%perm)) then
+      call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st, nest%q, q_next, &
+                                    row_perm=nest%perm_next, col_perm=nest%perm)
+    else
+      call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st, nest%q, q_next, &
+                                    row_perm=nest%perm_next)
+    end if
     if (.not. is_ok(st)) return
     call hdiv_prolongate_interior(coarse, fine, nest%q, q_next)
     call move_alloc(q_next, nest%q)
@@ -293,13 +308,11 @@ contains
     if (alloc_failed(ist, st, 'the nested RT1 vectors', 2 * size(xs), BYTES_REAL)) return
     free = .not. (kind == BOUND_LOWER .and. xs <= 0.0_dp)
     if (present(u_primal)) call complementarity_prediction(mesh, u_primal, xs, free)
-    ! to the level's numbering: the start, the masks, the patches, the prolongation
+    ! to the level's numbering: the start, the masks, the patches (the prolongation is in it)
     xp(perm) = xs
     free(perm) = free
     bounded(perm) = kind == BOUND_LOWER
     idx = perm(idx)
-    call renumber_prolongation(nest%p_next, perm, nest%perm, st)
-    if (.not. is_ok(st)) return
     call mg_add_level(nest%mg, sys%a, nest%p_next, ptr, idx, bounded, st)
     if (.not. is_ok(st)) return
     nest%ready = .false.
@@ -322,9 +335,11 @@ contains
     type(dual_p1_result_t), intent(inout) :: res
     type(status_t), intent(out) :: st
     type(pcg_result_t) :: pres
-    real(dp), allocatable :: x0(:)
-    real(dp) :: j_floor, j_repaired, j_start
-    integer :: round
+    real(dp), allocatable :: x0(:), x_prev(:)
+    real(dp) :: j_floor, j_now, j_start
+    integer :: round, ist
+    allocate (x0(size(x)), x_prev(size(x)), stat=ist)
+    if (alloc_failed(ist, st, 'the nested RT1 vectors', 2 * size(x), BYTES_REAL)) return
     x0 = x
     j_floor = nested_floor(sys)
     call mg_hold(nest%mg, free, st)
@@ -340,7 +355,10 @@ contains
     ! relaxed (J does not increase: a local repair of the setting to 0); where the setting
     ! to 0 cost more than repair_factor times what the CG had left (J - j_floor), which one
     ! relaxation does not recover (P1 on a domain of diameter 1e-4, where the divergence
-    ! term dominates S by 1e10), CG again with the new hold
+    ! term dominates S by 1e10), CG again with the new hold.  J is followed by its changes
+    ! (csr_quadratic_change: only the rows of the unknowns that changed), not recomputed.
+    j_now = pres%j_value
+    x_prev = x
     do round = 1, nested_max_rounds
       if (.not. any(free .and. bounded .and. x < 0.0_dp)) exit
       where (free .and. bounded .and. x < 0.0_dp)
@@ -350,21 +368,24 @@ contains
       call mg_hold(nest%mg, free, st)
       if (.not. is_ok(st)) return
       call mg_relax_bounded(nest%mg, sys%b, x, 1)
-      j_repaired = quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, x)
-      if (j_repaired - j_floor > repair_factor * max(pres%j_value - j_floor, 0.0_dp)) then
+      j_now = j_now + csr_quadratic_change(nest%mg%lev(nest%mg%nlevel)%a, sys%b, x_prev, x)
+      if (j_now - j_floor > repair_factor * max(pres%j_value - j_floor, 0.0_dp)) then
         j_start = pres%j_start
         call pcg_quadratic(nest%mg, sys%b, free, j_floor, nested_rel_decrease, &
                            min(settings%max_iter, nested_max_iter), x, pres, st, ratio=nest%cg_ratio)
         if (.not. is_ok(st)) return
         pres%j_start = j_start
+        j_now = pres%j_value
         res%iterations = res%iterations + pres%iterations
         res%converged = pres%converged
         res%residual = pres%last_decrease / max(pres%j_value - j_floor, tiny(1.0_dp))
       end if
+      x_prev = x
     end do
     ! feasible; never worse than the start (feasible too)
     where (bounded) x = max(x, 0.0_dp)
-    if (quadratic(nest%mg%lev(nest%mg%nlevel)%a, sys%b, x) > pres%j_start) x = x0
+    j_now = j_now + csr_quadratic_change(nest%mg%lev(nest%mg%nlevel)%a, sys%b, x_prev, x)
+    if (j_now > pres%j_start) x = x0
   end subroutine nested_iterate
 
   !> The numbering of the side unknowns (n of them) in which the vertex patches idx (in the
@@ -390,55 +411,6 @@ contains
       perm(k) = next
     end do
   end subroutine patch_numbering
-
-  !> The prolongation p (rows: the fine level's side unknowns, columns: the coarse ones, both
-  !> in the field's numbering) in the levels' numberings: row i becomes row fine(i), column
-  !> j column coarse(j) (coarse not allocated: the identity).
-  subroutine renumber_prolongation(p, fine, coarse, st)
-    type(rect_t), intent(inout) :: p
-    integer, intent(in) :: fine(:)
-    integer, allocatable, intent(in) :: coarse(:)
-    type(status_t), intent(inout) :: st
-    integer, allocatable :: rowptr(:), col(:)
-    real(dp), allocatable :: val(:)
-    integer :: i, r, len, ist, nnz
-    nnz = p%rowptr(p%m + 1) - 1          ! the arrays of p may be longer (drop_exact_zeros)
-    allocate (rowptr(p%m + 1), col(nnz), val(nnz), stat=ist)
-    if (alloc_failed(ist, st, 'the renumbered RT1 prolongation', 2 * nnz + p%m, BYTES_REAL)) return
-    rowptr(1) = 1
-    rowptr(2:) = 0
-    do i = 1, p%m
-      rowptr(fine(i) + 1) = p%rowptr(i + 1) - p%rowptr(i)
-    end do
-    do r = 1, p%m
-      rowptr(r + 1) = rowptr(r + 1) + rowptr(r)
-    end do
-    do i = 1, p%m
-      len = p%rowptr(i + 1) - p%rowptr(i)
-      col(rowptr(fine(i)):rowptr(fine(i)) + len - 1) = p%col(p%rowptr(i):p%rowptr(i + 1) - 1)
-      val(rowptr(fine(i)):rowptr(fine(i)) + len - 1) = p%val(p%rowptr(i):p%rowptr(i + 1) - 1)
-    end do
-    if (allocated(coarse)) col = coarse(col)
-    call move_alloc(rowptr, p%rowptr)
-    call move_alloc(col, p%col)
-    call move_alloc(val, p%val)
-  end subroutine renumber_prolongation
-
-  !> 1/2 x^T a x - b^T x.
-  real(dp) function quadratic(a, b, x) result(jx)
-    type(csr_t), intent(in) :: a
-    real(dp), intent(in) :: b(:), x(:)
-    integer :: i, p
-    real(dp) :: axi
-    jx = 0.0_dp                              ! row by row: no work vector
-    do i = 1, a%n
-      axi = 0.0_dp
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        axi = axi + a%val(p) * x(a%col(p))
-      end do
-      jx = jx + x(i) * (0.5_dp * axi - b(i))
-    end do
-  end function quadratic
 
   !> The active set predicted by complementarity with the primal solution u (nnode), as
   !> for the active-set start: a bounded unknown at a node with u > 0 is held at 0
