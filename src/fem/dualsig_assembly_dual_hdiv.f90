@@ -189,22 +189,36 @@ contains
     end do
   end subroutine assemble_dual_hdiv
 
-  !> a(dofs, dofs) += se, the rows of dofs in the pattern of hdiv_pattern: every entry of
-  !> such a row is matched against the 6 columns without a branch (a row has at most 10
-  !> entries; faster than a search per entry).
+  !> a(dofs, dofs) += se, every entry in the pattern (columns sorted in every row): the 6
+  !> columns sorted once, then each row's entries found by one merge pass over the row
+  !> (an entry outside the pattern, which hdiv_pattern does not leave, would be skipped).
   pure subroutine add_element_rows(a, dofs, se)
     type(csr_t), intent(inout) :: a
     integer, intent(in) :: dofs(rt1_nside)
     real(dp), intent(in) :: se(rt1_nside, rt1_nside)
-    integer :: r, c, p
-    real(dp) :: v
+    integer :: r, k, p, m, ds(rt1_nside), loc(rt1_nside), key, kl, last
+    ! insertion sort of the columns, with their local positions
+    do k = 1, rt1_nside
+      key = dofs(k)
+      m = k - 1
+      do while (m >= 1)
+        if (ds(m) <= key) exit
+        ds(m + 1) = ds(m)
+        loc(m + 1) = loc(m)
+        m = m - 1
+      end do
+      ds(m + 1) = key
+      loc(m + 1) = k
+    end do
     do r = 1, rt1_nside
-      do p = a%rowptr(dofs(r)), a%rowptr(dofs(r) + 1) - 1
-        v = 0.0_dp
-        do c = 1, rt1_nside
-          v = v + merge(se(r, c), 0.0_dp, a%col(p) == dofs(c))
+      p = a%rowptr(dofs(r))
+      last = a%rowptr(dofs(r) + 1) - 1
+      do k = 1, rt1_nside
+        kl = ds(k)
+        do while (p < last .and. a%col(p) /= kl)
+          p = p + 1
         end do
-        a%val(p) = a%val(p) + v
+        if (a%col(p) == kl) a%val(p) = a%val(p) + se(r, loc(k))
       end do
     end do
   end subroutine add_element_rows
