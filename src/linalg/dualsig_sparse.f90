@@ -99,67 +99,72 @@ contains
 
   !> Pattern in which all indices listed in one column of cliques(k, m) couple with each
   !> other (element matrices: each column holds the unknowns of one element); duplicates
-  !> across cliques are merged, the diagonal is always present, values zero.
+  !> across cliques are merged, the diagonal is always present, values zero.  Built row by
+  !> row from the cliques at each index (a marker per column merges the duplicates, so only
+  !> a row's distinct columns are sorted, and no list with the duplicates is stored).
   !> Out of memory: DS_ERR_MEMORY in st (without st the program stops, see dualsig_alloc).
   subroutine csr_pattern_from_cliques(n, cliques, a, st)
     integer, intent(in) :: n
     integer, intent(in) :: cliques(:,:)
     type(csr_t), intent(out) :: a
     type(status_t), intent(out) :: st
-    integer, allocatable :: cap(:), start(:), fill(:), cols(:)
-    integer :: k, m, c, r, i, p, nk, ist
+    integer, allocatable :: at(:), inc(:), mark(:)
+    integer :: c, r, i, pass, nk, ist, len, q
     nk = size(cliques, 1)
-    allocate (cap(n), start(n + 1), fill(n), stat=ist)
-    if (alloc_failed(ist, st, 'the row counts of a sparse matrix', 3 * n, BYTES_INT)) return
-    cap = 1
+    ! the cliques at each index: inc(at(i):at(i+1)-1)
+    allocate (at(n + 1), mark(n), a%rowptr(n + 1), a%diag(n), stat=ist)
+    if (alloc_failed(ist, st, 'the rows of a sparse matrix', 4 * n + 2, BYTES_INT)) return
+    at = 0
     do c = 1, size(cliques, 2)
       do r = 1, nk
-        cap(cliques(r, c)) = cap(cliques(r, c)) + nk
+        at(cliques(r, c) + 1) = at(cliques(r, c) + 1) + 1
       end do
     end do
-    start(1) = 1
+    at(1) = 1
     do i = 1, n
-      start(i + 1) = start(i) + cap(i)
+      at(i + 1) = at(i + 1) + at(i)
     end do
-    allocate (cols(start(n + 1) - 1), stat=ist)
-    if (alloc_failed(ist, st, 'the pattern of a sparse matrix', start(n + 1) - 1, BYTES_INT)) return
-    do i = 1, n
-      cols(start(i)) = i
-      fill(i) = 1
-    end do
+    allocate (inc(at(n + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the element lists of a sparse matrix', at(n + 1) - 1, BYTES_INT)) return
+    mark = at(1:n)
     do c = 1, size(cliques, 2)
       do r = 1, nk
         i = cliques(r, c)
-        do m = 1, nk
-          cols(start(i) + fill(i)) = cliques(m, c)
-          fill(i) = fill(i) + 1
-        end do
+        inc(mark(i)) = c
+        mark(i) = mark(i) + 1
       end do
     end do
-    ! sort each row, drop duplicates
+    ! pass 1 counts the distinct columns of every row, pass 2 stores and sorts them
     a%n = n
-    allocate (a%rowptr(n + 1), a%diag(n), stat=ist)
-    if (alloc_failed(ist, st, 'the rows of a sparse matrix', 2 * n, BYTES_INT)) return
     a%rowptr(1) = 1
-    do i = 1, n
-      call sort_small_ints(cols(start(i):start(i) + fill(i) - 1))
-      k = 1
-      do p = start(i) + 1, start(i) + fill(i) - 1
-        if (cols(p) /= cols(start(i) + k - 1)) then
-          cols(start(i) + k) = cols(p)
-          k = k + 1
+    do pass = 1, 2
+      if (pass == 2) then
+        allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1), stat=ist)
+        if (alloc_failed(ist, st, 'the entries of a sparse matrix', 3 * (a%rowptr(n + 1) - 1), BYTES_INT)) return
+        a%val = 0.0_dp
+      end if
+      mark = 0
+      do i = 1, n
+        len = 1
+        mark(i) = i
+        if (pass == 2) a%col(a%rowptr(i)) = i
+        do q = at(i), at(i + 1) - 1
+          do r = 1, nk
+            c = cliques(r, inc(q))
+            if (mark(c) == i) cycle
+            mark(c) = i
+            if (pass == 2) a%col(a%rowptr(i) + len) = c
+            len = len + 1
+          end do
+        end do
+        if (pass == 1) then
+          a%rowptr(i + 1) = a%rowptr(i) + len
+        else
+          call sort_small_ints(a%col(a%rowptr(i):a%rowptr(i + 1) - 1))
+          do q = a%rowptr(i), a%rowptr(i + 1) - 1
+            if (a%col(q) == i) a%diag(i) = q
+          end do
         end if
-      end do
-      fill(i) = k
-      a%rowptr(i + 1) = a%rowptr(i) + k
-    end do
-    allocate (a%col(a%rowptr(n + 1) - 1), a%val(a%rowptr(n + 1) - 1), stat=ist)
-    if (alloc_failed(ist, st, 'the entries of a sparse matrix', 3 * (a%rowptr(n + 1) - 1), BYTES_INT)) return
-    a%val = 0.0_dp
-    do i = 1, n
-      a%col(a%rowptr(i):a%rowptr(i + 1) - 1) = cols(start(i):start(i) + fill(i) - 1)
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        if (a%col(p) == i) a%diag(i) = p
       end do
     end do
   end subroutine csr_pattern_from_cliques
