@@ -338,7 +338,8 @@ contains
     type(patch_schwarz_t), intent(inout) :: ps
     type(status_t), intent(out) :: st
     integer, allocatable :: pos(:)
-    real(dp) :: blk(ps%max_size, ps%max_size)
+    !> column 0 takes the entries of columns outside the patch (pos 0): no branch per entry
+    real(dp) :: blk(ps%max_size, 0:ps%max_size)
     integer :: ip, p, m, i, k, q, ierr, b, e
     st%code = 0
     allocate (pos(a%n), source=0, stat=ierr)
@@ -360,7 +361,7 @@ contains
       do k = 1, m
         i = ps%idx(b + k - 1)
         do q = a%rowptr(i), a%rowptr(i + 1) - 1
-          if (pos(a%col(q)) > 0) blk(k, pos(a%col(q))) = a%val(q)
+          blk(k, pos(a%col(q))) = a%val(q)
         end do
       end do
       do k = 1, m
@@ -396,13 +397,14 @@ contains
   end subroutine partition_held
 
   !> Cholesky factor L (packed lower, column by column, the diagonal entries as their
-  !> reciprocals) of the SPD block blk; ierr /= 0
-  !> when a pivot is not positive.
+  !> reciprocals, so that the substitutions multiply and the factorisation divides once per
+  !> column) of the SPD block blk; ierr /= 0 when a pivot is not positive.
   pure subroutine dense_cholesky_packed(blk, l, ierr)
     real(dp), intent(inout) :: blk(:,:)
     real(dp), intent(out) :: l(:)
     integer, intent(out) :: ierr
-    integer :: m, j, i, k, off
+    integer :: m, j, k, off
+    real(dp) :: rdiag(size(blk, 1))
     m = size(blk, 1)
     ierr = 0
     do j = 1, m
@@ -413,15 +415,15 @@ contains
         ierr = j
         return
       end if
-      blk(j, j) = sqrt(blk(j, j))
-      blk(j + 1:m, j) = blk(j + 1:m, j) / blk(j, j)
+      rdiag(j) = 1.0_dp / sqrt(blk(j, j))       ! one division per column
+      blk(j + 1:m, j) = blk(j + 1:m, j) * rdiag(j)
     end do
     off = 0
     do j = 1, m
-      do i = j, m
-        off = off + 1
-        l(off) = merge(1.0_dp / blk(j, j), blk(i, j), i == j)
-      end do
+      off = off + 1
+      l(off) = rdiag(j)
+      l(off + 1:off + m - j) = blk(j + 1:m, j)
+      off = off + m - j
     end do
   end subroutine dense_cholesky_packed
 
