@@ -196,20 +196,13 @@ contains
     type(csr_t), intent(inout) :: a
     integer, intent(in) :: dofs(rt1_nside)
     real(dp), intent(in) :: se(rt1_nside, rt1_nside)
-    integer :: r, k, p, m, ds(rt1_nside), loc(rt1_nside), key, kl, last
-    ! insertion sort of the columns, with their local positions
-    do k = 1, rt1_nside
-      key = dofs(k)
-      m = k - 1
-      do while (m >= 1)
-        if (ds(m) <= key) exit
-        ds(m + 1) = ds(m)
-        loc(m + 1) = loc(m)
-        m = m - 1
-      end do
-      ds(m + 1) = key
-      loc(m + 1) = k
-    end do
+    integer :: r, k, p, ds(rt1_nside), loc(rt1_nside), kl, last
+    real(dp) :: pos(rt1_nside)
+    ! the columns sorted, with their local positions (carried as exact small reals)
+    ds = dofs
+    pos = [(real(k, dp), k = 1, rt1_nside)]
+    call sort_row_by_column(ds, pos)
+    loc = nint(pos)
     do r = 1, rt1_nside
       p = a%rowptr(dofs(r))
       last = a%rowptr(dofs(r) + 1) - 1
