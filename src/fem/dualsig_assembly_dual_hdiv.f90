@@ -236,9 +236,7 @@ contains
     do e = 1, mesh%nedge
       len = merge(max_row, max_row - 4, mesh%edge_tri(2, e) /= 0)
       do j = 1, 2
-        r = 2 * (e - 1) + j
-        if (present(renumber)) r = renumber(r)
-        a%rowptr(r + 1) = len
+        a%rowptr(row_of(2 * (e - 1) + j) + 1) = len
       end do
     end do
     do r = 1, a%n

@@ -109,7 +109,7 @@ contains
     type(csr_t), intent(out) :: a
     type(status_t), intent(out) :: st
     integer, allocatable :: at(:), inc(:), mark(:)
-    integer :: c, r, i, pass, nk, ist, len, q
+    integer :: c, r, i, j, pass, nk, ist, len, q
     nk = size(cliques, 1)
     ! the cliques at each index: inc(at(i):at(i+1)-1)
     allocate (at(n + 1), mark(n), a%rowptr(n + 1), a%diag(n), stat=ist)
@@ -150,10 +150,10 @@ contains
         if (pass == 2) a%col(a%rowptr(i)) = i
         do q = at(i), at(i + 1) - 1
           do r = 1, nk
-            c = cliques(r, inc(q))
-            if (mark(c) == i) cycle
-            mark(c) = i
-            if (pass == 2) a%col(a%rowptr(i) + len) = c
+            j = cliques(r, inc(q))
+            if (mark(j) == i) cycle
+            mark(j) = i
+            if (pass == 2) a%col(a%rowptr(i) + len) = j
             len = len + 1
           end do
         end do

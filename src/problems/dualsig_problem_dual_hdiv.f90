@@ -263,13 +263,9 @@ contains
     if (.not. is_ok(st)) return
     call patch_numbering(2 * fine%nedge, nest%idx_next, nest%perm_next, st)
     if (.not. is_ok(st)) return
-    if (allocated(nest%perm)) then
-      call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st, nest%q, q_next, &
-                                    row_perm=nest%perm_next, col_perm=nest%perm)
-    else
-      call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st, nest%q, q_next, &
-                                    row_perm=nest%perm_next)
-    end if
+    ! (nest%perm not allocated, after an exact first level: col_perm is absent, the identity)
+    call hdiv_prolongation_matrix(coarse, fine, nest%rec_k, nest%p_next, st, nest%q, q_next, &
+                                  row_perm=nest%perm_next, col_perm=nest%perm)
     if (.not. is_ok(st)) return
     call hdiv_prolongate_interior(coarse, fine, nest%q, q_next)
     call move_alloc(q_next, nest%q)
