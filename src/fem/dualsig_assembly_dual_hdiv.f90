@@ -32,7 +32,8 @@ module dualsig_assembly_dual_hdiv
   implicit none
   private
 
-  public :: hdiv_system_t, hdiv_nside_dofs, hdiv_nfield, hdiv_side_dofs, hdiv_local_coefficients, &
+  public :: hdiv_system_t, hdiv_element_t, hdiv_condensed_element
+  public :: hdiv_nside_dofs, hdiv_nfield, hdiv_side_dofs, hdiv_local_coefficients, &
             assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, hdiv_point_value, &
             hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongate_interior, hdiv_prolongation_matrix
 
@@ -48,6 +49,18 @@ module dualsig_assembly_dual_hdiv
   integer, parameter :: child_vertex(3, 4) = reshape([1, 4, 6, 4, 2, 5, 6, 5, 3, 4, 5, 6], [3, 4])
   real(dp), parameter :: child_centroid(3, 4) = reshape([4.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 4.0_dp, 1.0_dp, &
     1.0_dp, 1.0_dp, 4.0_dp, 2.0_dp, 2.0_dp, 2.0_dp], [3, 4]) / 6.0_dp
+
+  !> The condensed system of one triangle (hdiv_condensed_element), in the global signs.
+  type :: hdiv_element_t
+    integer :: dofs(rt1_nside) = 0                 !! its side unknowns (hdiv_side_dofs)
+    real(dp) :: se(rt1_nside, rt1_nside) = 0.0_dp  !! condensed matrix
+    real(dp) :: ce(rt1_nside) = 0.0_dp             !! condensed right-hand side
+    real(dp) :: rec_k(2, rt1_nside) = 0.0_dp       !! interior = rec_d - rec_k (side values)
+    real(dp) :: rec_d(2) = 0.0_dp
+    real(dp) :: shift = 0.0_dp                     !! its part of hdiv_system_t%shift
+    real(dp) :: data_sq = 0.0_dp                   !! its part of hdiv_system_t%data_sq
+    real(dp) :: osc_sq = 0.0_dp                    !! its part of hdiv_system_t%data_osc_sq
+  end type hdiv_element_t
 
   !> The condensed system of the side unknowns and what recovers the interior ones.
   type :: hdiv_system_t
@@ -145,10 +158,8 @@ contains
     !> (2 nedge) side unknown i of the field vector is unknown renumber(i) of the system
     integer, intent(in), optional :: renumber(:)
     type(rt1_reference_t) :: ref
-    type(rt1_geometry_t) :: g
-    real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), se(rt1_nside, rt1_nside), ce(rt1_nside)
-    real(dp) :: sgn(rt1_nside), fq(rule%n), ue(3), p(2), centroid(2), osc_sq
-    integer :: t, i, q, dofs(rt1_nside), ist
+    type(hdiv_element_t) :: el
+    integer :: t, dofs(rt1_nside), ist
     call hdiv_pattern(mesh, sys%a, st, renumber)
     if (has_failed(st)) return
     allocate (sys%b(2 * mesh%nedge), sys%rec_k(2, rt1_nside, mesh%ntri), sys%rec_d(2, mesh%ntri), stat=ist)
@@ -156,38 +167,63 @@ contains
                      BYTES_REAL)) return
     sys%b = 0.0_dp
     ref = rt1_reference(tri_rule(rt1_matrix_degree))
-    ue = 0.0_dp
-    osc_sq = 0.0_dp
     do t = 1, mesh%ntri
-      g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
-      centroid = sum(g%xy, dim=2) / 3.0_dp
-      do q = 1, rule%n
-        p = matmul(g%xy, rule%bary(:, q))
-        if (present(load)) then
-          fq(q) = load%mean(t) + dot_product(load%slope(:, t), p - centroid)
-        else
-          fq(q) = f%value(p(1), p(2))
-        end if
-      end do
-      if (present(load)) osc_sq = load%osc(t)**2
-      call rt1_element(g, fq, rule, ref, ae, be)
-      if (present(u)) ue = u(mesh%tri(:, t))
-      sys%data_osc_sq = sys%data_osc_sq + osc_sq
-      sys%data_sq = sys%data_sq + osc_sq + g%area * (sum(matmul(g%grad, ue)**2) &
-                    + sum(rule%w * (fq - matmul(ue, rule%bary))**2))
-      call rt1_condense(ae, be, se, ce, sys%rec_k(:, :, t), sys%rec_d(:, t))
-      sys%shift = sys%shift - 0.5_dp * dot_product(be(7:8), sys%rec_d(:, t))
-      call hdiv_side_dofs(mesh, t, dofs, sgn)
+      call hdiv_condensed_element(mesh, t, f, rule, ref, el, u, load)
+      sys%data_osc_sq = sys%data_osc_sq + el%osc_sq
+      sys%data_sq = sys%data_sq + el%data_sq
+      sys%shift = sys%shift + el%shift
+      sys%rec_k(:, :, t) = el%rec_k
+      sys%rec_d(:, t) = el%rec_d
+      dofs = el%dofs
       if (present(renumber)) dofs = renumber(dofs)
-      ! local = sgn * global: S_global = D S D, c_global = D c, rec_k D
-      do i = 1, rt1_nside
-        se(:, i) = sgn * se(:, i) * sgn(i)
-        sys%rec_k(:, i, t) = sys%rec_k(:, i, t) * sgn(i)
-      end do
-      sys%b(dofs) = sys%b(dofs) + sgn * ce
-      call add_element_rows(sys%a, dofs, se)
+      sys%b(dofs) = sys%b(dofs) + el%ce
+      call add_element_rows(sys%a, dofs, el%se)
     end do
   end subroutine assemble_dual_hdiv
+
+  !> The condensed system of triangle t, what assemble_dual_hdiv adds for it: the element
+  !> matrix and vector of (3.1') (rt1_element, exact), the interior unknowns eliminated
+  !> (rt1_condense), in the global signs of the side unknowns el%dofs (local = sgn *
+  !> global: S = D S_loc D, c = D c_loc, rec_k D); its parts of shift, data_sq and
+  !> data_osc_sq (hdiv_system_t).  f, rule, u and load as in assemble_dual_hdiv; ref =
+  !> rt1_reference(tri_rule(rt1_matrix_degree)).
+  subroutine hdiv_condensed_element(mesh, t, f, rule, ref, el, u, load)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: t
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(rt1_reference_t), intent(in) :: ref
+    type(hdiv_element_t), intent(out) :: el
+    real(dp), intent(in), optional :: u(:)
+    type(load_data_t), intent(in), optional :: load
+    type(rt1_geometry_t) :: g
+    real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), sgn(rt1_nside), fq(rule%n), ue(3), p(2), centroid(2)
+    integer :: i, q
+    g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
+    centroid = sum(g%xy, dim=2) / 3.0_dp
+    do q = 1, rule%n
+      p = matmul(g%xy, rule%bary(:, q))
+      if (present(load)) then
+        fq(q) = load%mean(t) + dot_product(load%slope(:, t), p - centroid)
+      else
+        fq(q) = f%value(p(1), p(2))
+      end if
+    end do
+    el%osc_sq = 0.0_dp
+    if (present(load)) el%osc_sq = load%osc(t)**2
+    call rt1_element(g, fq, rule, ref, ae, be)
+    ue = 0.0_dp
+    if (present(u)) ue = u(mesh%tri(:, t))
+    el%data_sq = el%osc_sq + g%area * (sum(matmul(g%grad, ue)**2) + sum(rule%w * (fq - matmul(ue, rule%bary))**2))
+    call rt1_condense(ae, be, el%se, el%ce, el%rec_k, el%rec_d)
+    el%shift = -0.5_dp * dot_product(be(7:8), el%rec_d)
+    call hdiv_side_dofs(mesh, t, el%dofs, sgn)
+    do i = 1, rt1_nside
+      el%se(:, i) = sgn * el%se(:, i) * sgn(i)
+      el%rec_k(:, i) = el%rec_k(:, i) * sgn(i)
+    end do
+    el%ce = sgn * el%ce
+  end subroutine hdiv_condensed_element
 
   !> a(dofs, dofs) += se, every entry in the pattern (columns sorted in every row): the 6
   !> columns sorted once, then each row's entries found by one merge pass over the row
