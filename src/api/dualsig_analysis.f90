@@ -940,7 +940,10 @@ contains
     type(mesh_t), intent(in) :: finer
     type(status_t), intent(inout) :: st
     an%prolong_seconds = wall_seconds()
-    call dual_hdiv_nested_refine(an%nest, an%mesh, finer, st)
+    ! the last level of the run (its hierarchy would be released after it) is solved by the
+    ! matrix-free sweeps as far as dual_algebraic_share allows; share 0 asks for the solve
+    call dual_hdiv_nested_refine(an%nest, an%mesh, finer, st, last=an%level + 1 >= an%settings%levels .and. &
+                                 .not. an%settings%keep_hierarchy .and. an%settings%dual_algebraic_share > 0.0_dp)
     an%prolong_seconds = wall_seconds() - an%prolong_seconds
   end subroutine prolongate_q_hdiv
 
@@ -1348,6 +1351,8 @@ contains
     dset%max_iter = an%settings%dual_max_iter
     dset%ordering = an%settings%ordering
     dset%tol = dual_tolerance(an%settings, res%h, mesh_diameter(an%mesh))
+    dset%algebraic_share = an%settings%dual_algebraic_share
+    dset%algebraic_est_tol = algebraic_est_tol(an, res%ndof)
     res%dual_method = an%dual_method
     res%dual_space = an%settings%dual_space
     ! the load data first (the bounds need it): the RT1 dual takes f from it, exactly

@@ -366,21 +366,29 @@ contains
     real(dp), intent(in) :: xc(:)
     real(dp), intent(out) :: xf(:)
     type(rt1_geometry_t) :: gc
-    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2)
-    integer :: tf, tc, k, e, j, n
+    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), qp(2, 6)
+    integer :: tf, tc, k, e, j, ch, ip
     xf = 0.0_dp
-    do tf = 1, fine%ntri
-      tc = (tf + 3) / 4
+    do tc = 1, coarse%ntri
+      ! per coarse triangle: the field at its vertices and side midpoints (child_point), the
+      ! ends of every fine edge inside it
       gc = rt1_geometry(coarse%xy(:, coarse%tri(:, tc)))
       c = hdiv_local_coefficients(coarse, xc, tc)
-      do k = 1, 3
-        e = fine%tri_edge(k, tf)
-        if (fine%edge_tri(1, e) /= tf) cycle
-        nu = side_normal(fine, tf, k)
-        do j = 1, 2
-          n = fine%edge_nodes(j, e)
-          call rt1_values(gc, barycentric(gc, fine%xy(:, n)), psi, dpsi)
-          xf(2 * e - 2 + j) = dot_product(nu, matmul(psi, c))
+      do ip = 1, 6
+        call rt1_values(gc, child_point(:, ip), psi, dpsi)
+        qp(:, ip) = matmul(psi, c)
+      end do
+      do ch = 1, 4
+        tf = 4 * tc - 4 + ch
+        do k = 1, 3
+          e = fine%tri_edge(k, tf)
+          if (fine%edge_tri(1, e) /= tf) cycle
+          nu = side_normal(fine, tf, k)
+          do j = 1, 2
+            ! the point of the parent at fine node edge_nodes(j, e): vertex k or k+1 of child ch
+            ip = child_vertex(merge(k, mod(k, 3) + 1, fine%edge_nodes(j, e) == fine%tri(k, tf)), ch)
+            xf(2 * e - 2 + j) = dot_product(nu, qp(:, ip))
+          end do
         end do
       end do
     end do
@@ -528,14 +536,4 @@ contains
       end do
     end do
   end subroutine hdiv_prolongation_matrix
-
-  !> Barycentric coordinates of the point p in the triangle of g.
-  pure function barycentric(g, p) result(bary)
-    type(rt1_geometry_t), intent(in) :: g
-    real(dp), intent(in) :: p(2)
-    real(dp) :: bary(3)
-    real(dp) :: centroid(2)
-    centroid = sum(g%xy, dim=2) / 3.0_dp
-    bary = 1.0_dp / 3.0_dp + matmul(p - centroid, g%grad)
-  end function barycentric
 end module dualsig_assembly_dual_hdiv

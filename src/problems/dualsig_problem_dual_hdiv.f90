@@ -32,11 +32,13 @@
 !>   2 (J - j_floor), see nested_floor); free bounded unknowns that went negative are then
 !>   set to 0 and held and the boundary patches relaxed once (J does not increase; at most
 !>   nested_max_rounds times).  Any feasible field gives guaranteed bounds, so only their
-!>   sharpness depends on how far the iteration went.
+!>   sharpness depends on how far the iteration went.  The last level of a uniform run
+!>   (nest%last) joins no hierarchy: matrix-free projected patch sweeps from the prolongated
+!>   field (solve_smoothed, dualsig_dual_hdiv_smoother), with the nested solve as fallback.
 module dualsig_problem_dual_hdiv
   use dualsig_kinds, only: dp
   use dualsig_fields, only: field_t
-  use dualsig_mesh, only: mesh_t
+  use dualsig_mesh, only: mesh_t, mesh_move
   use dualsig_sparse, only: rect_t, rect_from_triplets, csr_t, csr_quadratic_change
   use dualsig_quadrature, only: tri_rule_t
   use dualsig_ordering_geometric, only: select_ordering
@@ -46,12 +48,15 @@ module dualsig_problem_dual_hdiv
   use dualsig_solver_active_set, only: active_set_settings_t, active_set_result_t, active_set_solve
   use dualsig_elements_p1, only: p1_gradients
   use dualsig_assembly_dual_hdiv, only: hdiv_system_t, assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, &
-                                        hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate_interior, hdiv_prolongation_matrix
+                                        hdiv_prolongate, hdiv_nfield, hdiv_bedge_dofs, hdiv_prolongate_interior, &
+                                        hdiv_prolongation_matrix
   use dualsig_problem_dual_p1, only: dual_p1_settings_t, dual_p1_result_t, dual_p1_result_from_active_set
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   use dualsig_load_data, only: load_data_t
+  use dualsig_dual_hdiv_smoother, only: hdiv_local_t, hdiv_local_build, hdiv_local_permute, hdiv_local_sweep, &
+                                        hdiv_local_recover
   implicit none
   private
 
@@ -74,6 +79,12 @@ module dualsig_problem_dual_hdiv
     !> numbering) and the numbering of its matrix (patch_numbering), in which p_next's rows
     !> already are
     integer, allocatable :: ptr_next(:), idx_next(:), perm_next(:)
+    !> after a refinement for the last level of a uniform run (dual_hdiv_nested_refine's
+    !> last): the level is solved by the matrix-free sweeps (solve_smoothed) from q
+    !> prolongated from `coarse` (kept for that and for the fallback to the nested solve),
+    !> not added to the hierarchy
+    logical :: last = .false.
+    type(mesh_t) :: coarse
   end type hdiv_nested_t
 
   !> Start value of a bounded unknown predicted free (contact: q.nu > 0 expected).
@@ -86,6 +97,9 @@ module dualsig_problem_dual_hdiv
   !> 'nested': CG again after a round of setting negative bounded unknowns to 0 where that
   !> left J - j_floor above this multiple of its value after the CG.
   real(dp), parameter :: repair_factor = 2.0_dp
+  !> The last level of a uniform run ('nested', nest%last): projected patch sweeps at most
+  !> (the stop is settings%algebraic_share's, solve_smoothed).
+  integer, parameter :: smooth_max_sweeps = 8
 
 contains
 
@@ -113,7 +127,7 @@ contains
     integer, allocatable :: kind(:), ptr(:), idx(:), perm(:)
     real(dp), allocatable :: xs(:)
     integer :: n, ist
-    logical :: nested, inexact
+    logical :: nested, inexact, smoothed
 
     if (all(trim(settings%method) /= [character(len=10) :: 'active_set', 'uzawa', 'nested'])) then
       call set_error(st, DS_ERR_INPUT, 'dual P1 (hdiv): unknown method "' // trim(settings%method) // &
@@ -122,7 +136,27 @@ contains
     end if
     nested = trim(settings%method) == 'nested' .and. present(nest)
     inexact = .false.
+    smoothed = .false.
     if (nested) inexact = nest%ready
+    if (inexact) smoothed = nest%last
+    if (smoothed) then
+      ! the last level of a uniform run: matrix-free sweeps from the prolongated field; where
+      ! they do not reach the share of est asked for (a domain so small that the divergence
+      ! term dominates, whose smooth part needs the coarse correction), the nested solve
+      ! from the swept field
+      call solve_smoothed(mesh, f, rule, settings, nest, x, res, st, u_primal, load)
+      if (.not. is_ok(st)) return
+      if (res%converged) then
+        if (present(sys_out)) call assemble_dual_hdiv(mesh, f, rule, sys_out, st, u_primal, load)
+        return
+      end if
+      call nested_fallback(nest, mesh, st)
+      if (.not. is_ok(st)) return
+      deallocate (x)
+      n = res%iterations
+      res = dual_p1_result_t()
+      res%iterations = n
+    end if
     if (inexact) then
       ! the vertex patches of the V-cycle's smoother, and the level's unknowns numbered as
       ! the patches first reach them, so that a patch's rows lie together in memory (made
@@ -249,12 +283,21 @@ contains
   !> The state of 'nested' after the uniform refinement of coarse into fine: the last
   !> field prolongated (the start) and the prolongation of side unknowns (the V-cycle's).
   !> Out of memory: DS_ERR_MEMORY in st.
-  subroutine dual_hdiv_nested_refine(nest, coarse, fine, st)
+  subroutine dual_hdiv_nested_refine(nest, coarse, fine, st, last)
     type(hdiv_nested_t), intent(inout) :: nest
     type(mesh_t), intent(in) :: coarse, fine
     type(status_t), intent(inout) :: st
+    !> fine is the last level of the run: only the field is prolongated (solve_smoothed)
+    logical, intent(in), optional :: last
     real(dp), allocatable :: q_next(:)
     integer :: ist
+    nest%last = .false.
+    if (present(last)) nest%last = last
+    if (nest%last) then
+      nest%coarse = coarse
+      nest%ready = .true.
+      return
+    end if
     allocate (q_next(hdiv_nfield(fine)), stat=ist)
     if (alloc_failed(ist, st, 'the prolongated RT1 field', hdiv_nfield(fine), BYTES_REAL)) return
     ! the fine level's patches and numbering first, so that the prolongation is built in
@@ -278,6 +321,97 @@ contains
     call mg_free(nest%mg)
     nest = hdiv_nested_t()
   end subroutine dual_hdiv_nested_free
+
+  !> Method 'nested' on the last level of a uniform run (nest%last): from the previous
+  !> level's field prolongated (exact, feasible), projected multiplicative sweeps over the
+  !> vertex patches without an assembled matrix (dualsig_dual_hdiv_smoother).  No coarse
+  !> correction: what the previous level left stays, a small part of est because the RT1
+  !> field's error is of higher order than the primal's (theory.md).  The field is feasible
+  !> after every patch step and J never increases, so the bounds are guaranteed whenever
+  !> the sweeps stop.  They stop when the part of est that further sweeps could remove
+  !> (twice the decrease of J, predicted from the last two sweeps' decreases as a geometric
+  !> series; after one sweep: what it removed) is at most settings%algebraic_est_tol, or,
+  !> where that is 0, settings%algebraic_share of the sweeps' own est = 2 (J - j_floor); or
+  !> after smooth_max_sweeps (res%converged .false.: dual_hdiv_solve falls back to the
+  !> nested solve).  The level joins no hierarchy (nest%ready is .false. on return).
+  subroutine solve_smoothed(mesh, f, rule, settings, nest, x, res, st, u_primal, load)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(dual_p1_settings_t), intent(in) :: settings
+    type(hdiv_nested_t), intent(inout) :: nest
+    real(dp), allocatable, intent(out) :: x(:)
+    type(dual_p1_result_t), intent(inout) :: res
+    type(status_t), intent(inout) :: st
+    real(dp), intent(in), optional :: u_primal(:)
+    type(load_data_t), intent(in), optional :: load
+    type(hdiv_local_t) :: loc
+    integer, allocatable :: kind(:), order(:)
+    logical, allocatable :: bounded(:)
+    real(dp), allocatable :: xs(:)
+    real(dp) :: j_floor, j_now, dj, dj_prev, left
+    integer :: n, k, ist
+    nest%ready = .false.
+    call dual_hdiv_bound_kinds(mesh, kind, st)
+    if (.not. is_ok(st)) return
+    call z_order(mesh, order, st)
+    if (.not. is_ok(st)) return
+    n = 2 * mesh%nedge
+    allocate (xs(n), bounded(n), x(hdiv_nfield(mesh)), stat=ist)
+    if (alloc_failed(ist, st, 'the RT1 dual vectors', n + hdiv_nfield(mesh), BYTES_REAL)) return
+    ! the start: the previous level's field (exact, and feasible up to rounding)
+    call hdiv_prolongate(nest%coarse, mesh, nest%q, x)
+    where (kind == BOUND_LOWER) x(1:n) = max(x(1:n), 0.0_dp)
+    call hdiv_local_build(mesh, f, rule, order, loc, st, u_primal, load, x0=x(1:n), j0=j_now)
+    if (.not. is_ok(st)) return
+    bounded(loc%perm) = kind == BOUND_LOWER
+    res%nconstraints = count(bounded)
+    call hdiv_local_permute(loc, x(1:n), xs)
+    j_floor = nested_floor_of(loc%shift, loc%data_sq, loc%data_osc_sq)
+    dj = 0.0_dp
+    left = huge(1.0_dp)
+    do k = 1, smooth_max_sweeps
+      dj_prev = dj
+      call hdiv_local_sweep(loc, bounded, xs, dj, st)
+      if (.not. is_ok(st)) return
+      j_now = j_now - dj
+      res%iterations = k
+      ! what further sweeps could remove: dj q / (1 - q), q the last ratio of decreases
+      ! (after the first sweep, or when a sweep gained nothing: dj itself)
+      if (k == 1 .or. .not. dj > 0.0_dp) then
+        left = dj
+      else if (dj < dj_prev) then
+        left = dj * dj / (dj_prev - dj)
+      else
+        left = huge(1.0_dp)                 ! no contraction measured
+      end if
+      if (settings%algebraic_est_tol > 0.0_dp) then
+        res%converged = left <= 0.5_dp * settings%algebraic_est_tol
+      else
+        res%converged = left <= settings%algebraic_share * max(j_now - j_floor, 0.0_dp)
+      end if
+      if (res%converged) exit
+    end do
+    res%residual = min(left, dj) / max(j_now - j_floor, tiny(1.0_dp))
+    res%nactive = count(bounded .and. xs <= 0.0_dp)
+    call hdiv_local_recover(loc, xs, x)
+  end subroutine solve_smoothed
+
+  !> The fallback of the last level (nest%last) to the nested solve: the refinement of
+  !> nest%coarse into mesh made as for any level (patches, numbering, prolongation matrix,
+  !> the prolongated start; dual_hdiv_nested_refine).  The swept field is not the start: on
+  !> the domains where the sweeps stall, the nested solve's complementarity prediction and
+  !> repair rounds are tuned from the prolongated field (the swept one left eff 68 at level 3
+  !> of side 1e-4, against 1.011).
+  subroutine nested_fallback(nest, mesh, st)
+    type(hdiv_nested_t), intent(inout) :: nest
+    type(mesh_t), intent(in) :: mesh
+    type(status_t), intent(inout) :: st
+    type(mesh_t) :: coarse
+    call mesh_move(nest%coarse, coarse)
+    nest%last = .false.
+    call dual_hdiv_nested_refine(nest, coarse, mesh, st)
+  end subroutine nested_fallback
 
   !> The inexact solve of method 'nested' from the start xs (see the module header); the
   !> level joins the hierarchy of nest.  sys is assembled in the numbering perm
@@ -517,8 +651,14 @@ contains
   !> it is orders of magnitude above the rest of E, which would stop the iteration at once.
   pure real(dp) function nested_floor(sys) result(j_floor)
     type(hdiv_system_t), intent(in) :: sys
-    j_floor = -sys%shift - 0.5_dp * (sys%data_sq - sys%data_osc_sq)
+    j_floor = nested_floor_of(sys%shift, sys%data_sq, sys%data_osc_sq)
   end function nested_floor
+
+  !> nested_floor from the parts of hdiv_system_t (shift, data_sq, data_osc_sq).
+  pure real(dp) function nested_floor_of(shift, data_sq, data_osc_sq) result(j_floor)
+    real(dp), intent(in) :: shift, data_sq, data_osc_sq
+    j_floor = -shift - 0.5_dp * (data_sq - data_osc_sq)
+  end function nested_floor_of
 
   !> The paper's Uzawa algorithm (Section 3) on the condensed system with B = the rows
   !> e_i^T of the bounded unknowns: S factorised once by CHOLMOD.

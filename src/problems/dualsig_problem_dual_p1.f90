@@ -52,6 +52,11 @@ module dualsig_problem_dual_p1
     real(dp) :: tol = 1.0e-10_dp                 !! Uzawa tolerance (relative natural residual)
     integer :: max_iter = 20000                  !! Uzawa iterations / active-set changes
     integer :: ordering = ORDERING_AMD           !! CHOLMOD ordering
+    !> RT1 'nested', the last level of a uniform run (dualsig_problem_dual_hdiv, solve_smoothed):
+    !> the part of est its sweeps may leave (predicted), in est's units; 0: algebraic_share
+    !> of the sweeps' own est (which leaves out what est_pw weights down, so it is looser)
+    real(dp) :: algebraic_est_tol = 0.0_dp
+    real(dp) :: algebraic_share = 1.0e-3_dp
   end type dual_p1_settings_t
 
   type :: dual_p1_result_t
