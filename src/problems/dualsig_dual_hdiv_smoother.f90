@@ -53,7 +53,7 @@ module dualsig_dual_hdiv_smoother
     integer, allocatable :: dofs(:,:)      !! (6, ntri) the side unknowns of each triangle
     real(dp), allocatable :: se(:,:)       !! (npack, ntri) condensed matrix, packed lower, by columns
     real(dp), allocatable :: ce(:,:)       !! (6, ntri) condensed right-hand side
-    real(dp), allocatable :: rec(:,:)      !! (14, ntri) rec_k (2 x 6, by columns), then rec_d
+    real(dp), allocatable :: rec(:,:,:)    !! (2, 7, ntri) rec_k (2 x 6), then rec_d
     integer, allocatable :: tri_of(:)      !! (ntri) the mesh's triangle of triangle tn
     integer, allocatable :: tperm(:)       !! (ntri) the mesh's triangle t is triangle tperm(t) here
     integer, allocatable :: perm(:)        !! (nside) side unknown i of the mesh is perm(i) here
@@ -105,7 +105,7 @@ contains
     if (st%code /= 0) return
     call sweep_numbering(mesh, loc, st)
     if (st%code /= 0) return
-    allocate (loc%se(npack, mesh%ntri), loc%ce(rt1_nside, mesh%ntri), loc%rec(14, mesh%ntri), stat=ist)
+    allocate (loc%se(npack, mesh%ntri), loc%ce(rt1_nside, mesh%ntri), loc%rec(2, 7, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the condensed RT1 systems of the triangles', (npack + rt1_nside + 14) * mesh%ntri, &
                      BYTES_REAL)) return
     ref = rt1_reference(tri_rule(rt1_matrix_degree))
@@ -122,8 +122,8 @@ contains
       loc%shift = loc%shift + el%shift
       loc%se(:, tn) = pack_lower(el%se)
       loc%ce(:, tn) = el%ce
-      loc%rec(1:12, tn) = reshape(el%rec_k, [12])
-      loc%rec(13:14, tn) = el%rec_d
+      loc%rec(:, 1:rt1_nside, tn) = el%rec_k
+      loc%rec(:, 7, tn) = el%rec_d
     end do
   end subroutine hdiv_local_build
 
@@ -249,8 +249,7 @@ contains
     x(1:n) = xp(loc%perm)
     do t = 1, loc%ntri
       tn = loc%tperm(t)
-      x(n + 2 * t - 1:n + 2 * t) = loc%rec(13:14, tn) - matmul(reshape(loc%rec(1:12, tn), [2, rt1_nside]), &
-                                                              xp(loc%dofs(:, tn)))
+      x(n + 2 * t - 1:n + 2 * t) = loc%rec(:, 7, tn) - matmul(loc%rec(:, 1:rt1_nside, tn), xp(loc%dofs(:, tn)))
     end do
   end subroutine hdiv_local_recover
 
