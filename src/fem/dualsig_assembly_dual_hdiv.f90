@@ -47,6 +47,8 @@ module dualsig_assembly_dual_hdiv
   real(dp), parameter :: child_point(3, 6) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, 0.0_dp, &
     0.0_dp, 0.0_dp, 1.0_dp, 0.5_dp, 0.5_dp, 0.0_dp, 0.0_dp, 0.5_dp, 0.5_dp, 0.5_dp, 0.0_dp, 0.5_dp], [3, 6])
   integer, parameter :: child_vertex(3, 4) = reshape([1, 4, 6, 4, 2, 5, 6, 5, 3, 4, 5, 6], [3, 4])
+  !> Ends of the fine edges inside a coarse triangle, at most (4 children, 3 sides, 2 ends).
+  integer, parameter :: max_side_ends = 24
   real(dp), parameter :: child_centroid(3, 4) = reshape([4.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 4.0_dp, 1.0_dp, &
     1.0_dp, 1.0_dp, 4.0_dp, 2.0_dp, 2.0_dp, 2.0_dp], [3, 4]) / 6.0_dp
 
@@ -366,8 +368,8 @@ contains
     real(dp), intent(in) :: xc(:)
     real(dp), intent(out) :: xf(:)
     type(rt1_geometry_t) :: gc
-    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), nu(2), qp(2, 6)
-    integer :: tf, tc, k, e, j, ch, ip
+    real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), qp(2, 6), nus(2, max_side_ends)
+    integer :: tc, k, ip, m, rows(max_side_ends), pts(max_side_ends)
     xf = 0.0_dp
     do tc = 1, coarse%ntri
       ! per coarse triangle: the field at its vertices and side midpoints (child_point), the
@@ -378,18 +380,9 @@ contains
         call rt1_values(gc, child_point(:, ip), psi, dpsi)
         qp(:, ip) = matmul(psi, c)
       end do
-      do ch = 1, 4
-        tf = 4 * tc - 4 + ch
-        do k = 1, 3
-          e = fine%tri_edge(k, tf)
-          if (fine%edge_tri(1, e) /= tf) cycle
-          nu = side_normal(fine, tf, k)
-          do j = 1, 2
-            ! the point of the parent at fine node edge_nodes(j, e): vertex k or k+1 of child ch
-            ip = child_vertex(merge(k, mod(k, 3) + 1, fine%edge_nodes(j, e) == fine%tri(k, tf)), ch)
-            xf(2 * e - 2 + j) = dot_product(nu, qp(:, ip))
-          end do
-        end do
+      call child_side_ends(fine, tc, rows, pts, nus, m)
+      do k = 1, m
+        xf(rows(k)) = dot_product(nus(:, k), qp(:, pts(k)))
       end do
     end do
     call hdiv_prolongate_interior(coarse, fine, xc, xf)
@@ -462,10 +455,10 @@ contains
     !> unknown i is row row_perm(i) of p, coarse side unknown j column col_perm(j)
     integer, intent(in), optional :: row_perm(:), col_perm(:)
     type(rt1_geometry_t) :: gc
-    real(dp) :: psi(2, rt1_nbasis, 6), dpsi(rt1_nbasis), nu(2), w(rt1_nbasis), sgn(rt1_nside)
+    real(dp) :: psi(2, rt1_nbasis, 6), dpsi(rt1_nbasis), w(rt1_nbasis), sgn(rt1_nside), nus(2, max_side_ends)
     real(dp) :: v(rt1_nside), c(rt1_nbasis), pos(rt1_nside), big
-    integer :: tf, tc, k, e, j, cdofs(rt1_nside), order(rt1_nside), sorted(rt1_nside), i, row, ist, ch, ip
-    integer :: pass, q
+    integer :: tc, k, cdofs(rt1_nside), order(rt1_nside), sorted(rt1_nside), i, row, ist, ip, m
+    integer :: pass, q, rows(max_side_ends), pts(max_side_ends)
     logical :: fill
     p%m = 2 * fine%nedge
     p%n = 2 * coarse%nedge
@@ -500,40 +493,57 @@ contains
           call rt1_values(gc, child_point(:, ip), psi(:, :, ip), dpsi)
         end do
         if (fill .and. present(xc)) c = hdiv_local_coefficients(coarse, xc, tc)
-        do ch = 1, 4
-          tf = 4 * tc - 4 + ch
-          do k = 1, 3
-            e = fine%tri_edge(k, tf)
-            if (fine%edge_tri(1, e) /= tf) cycle
-            nu = side_normal(fine, tf, k)
-            do j = 1, 2
-              ! the point of the parent at fine node edge_nodes(j, e): vertex k or k+1 of child ch
-              ip = child_vertex(merge(k, mod(k, 3) + 1, fine%edge_nodes(j, e) == fine%tri(k, tf)), ch)
-              w = matmul(nu, psi(:, :, ip))
-              if (fill .and. present(xc) .and. present(xf)) xf(2 * e - 2 + j) = dot_product(w, c)
-              do i = 1, rt1_nside
-                v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
-              end do
-              v = v(order)
-              row = 2 * e - 2 + j
-              if (present(row_perm)) row = row_perm(row)
-              ! without the entries that are rounded zeros
-              big = maxval(abs(v))
-              if (.not. fill) then
-                p%rowptr(row + 1) = count(abs(v) > prolongation_zero * big)
-                cycle
-              end if
-              q = p%rowptr(row)
-              do i = 1, rt1_nside
-                if (.not. abs(v(i)) > prolongation_zero * big) cycle
-                p%col(q) = cdofs(order(i))
-                p%val(q) = v(i)
-                q = q + 1
-              end do
-            end do
+        call child_side_ends(fine, tc, rows, pts, nus, m)
+        do k = 1, m
+          w = matmul(nus(:, k), psi(:, :, pts(k)))
+          if (fill .and. present(xc) .and. present(xf)) xf(rows(k)) = dot_product(w, c)
+          do i = 1, rt1_nside
+            v(i) = w(i) * sgn(i) - dot_product(w(7:8), rec_k(:, i, tc))
+          end do
+          v = v(order)
+          row = rows(k)
+          if (present(row_perm)) row = row_perm(row)
+          ! without the entries that are rounded zeros
+          big = maxval(abs(v))
+          if (.not. fill) then
+            p%rowptr(row + 1) = count(abs(v) > prolongation_zero * big)
+            cycle
+          end if
+          q = p%rowptr(row)
+          do i = 1, rt1_nside
+            if (.not. abs(v(i)) > prolongation_zero * big) cycle
+            p%col(q) = cdofs(order(i))
+            p%val(q) = v(i)
+            q = q + 1
           end do
         end do
       end do
     end do
   end subroutine hdiv_prolongation_matrix
+
+  !> The ends of the fine edges inside coarse triangle tc (its children 4tc-3 .. 4tc, each
+  !> edge once: from the child that is its edge_tri(1, e)): m of them, end j of edge e as
+  !> the fine side unknown rows(k) = 2e - 2 + j, its point pts(k) of the parent (child_point:
+  !> vertex k or k+1 of the child) and the fine edge's normal nus(:, k).
+  pure subroutine child_side_ends(fine, tc, rows, pts, nus, m)
+    type(mesh_t), intent(in) :: fine
+    integer, intent(in) :: tc
+    integer, intent(out) :: rows(max_side_ends), pts(max_side_ends), m
+    real(dp), intent(out) :: nus(2, max_side_ends)
+    integer :: ch, tf, k, e, j
+    m = 0
+    do ch = 1, 4
+      tf = 4 * tc - 4 + ch
+      do k = 1, 3
+        e = fine%tri_edge(k, tf)
+        if (fine%edge_tri(1, e) /= tf) cycle
+        do j = 1, 2
+          m = m + 1
+          rows(m) = 2 * e - 2 + j
+          pts(m) = child_vertex(merge(k, mod(k, 3) + 1, fine%edge_nodes(j, e) == fine%tri(k, tf)), ch)
+          nus(:, m) = side_normal(fine, tf, k)
+        end do
+      end do
+    end do
+  end subroutine child_side_ends
 end module dualsig_assembly_dual_hdiv
