@@ -362,7 +362,7 @@ contains
       end do
     end do
     w%d(1:m) = w%r(1:m)
-    call cholesky_solve_in_place(m, w%f, w%d, ierr)
+    call spd_solve_in_place(m, w%f, w%d, ierr)
     w%dj = -0.5_dp * dot_product(w%r(1:m), w%d(1:m))
     if (ierr /= 0 .or. .not. w%dj < 0.0_dp) then
       w%d(1:m) = 0.0_dp
@@ -379,15 +379,15 @@ contains
     integer, intent(in) :: m
     real(dp) :: alpha, dj_cut
     integer :: round, ierr, i
+    if (.not. any(w%bnd(1:m))) then
+      call free_patch_step(w, m)
+      return
+    end if
     w%dj = 0.0_dp
     w%at_zero(1:m) = .false.
     call solve_with_zeros(w, m, ierr)
     if (ierr /= 0) then
       w%d(1:m) = 0.0_dp
-      return
-    end if
-    if (.not. any(w%bnd(1:m))) then
-      w%dj = -0.5_dp * dot_product(w%r(1:m), w%d(1:m))     ! a d = r
       return
     end if
     w%d0(1:m) = w%d(1:m)
@@ -416,8 +416,8 @@ contains
   end subroutine patch_step
 
   !> w%d minimising 1/2 d^T a d - r^T d over the patch's m unknowns with d_i = -x_i where
-  !> w%at_zero(i) (those unknowns go to 0): the block of the others factorised in place
-  !> (Cholesky, in w%f) and solved.  ierr /= 0 when that block is not positive definite.
+  !> w%at_zero(i) (those unknowns go to 0): the block of the others copied to w%f and solved
+  !> there (spd_solve_in_place).  ierr /= 0 when that block is not positive definite.
   pure subroutine solve_with_zeros(w, m, ierr)
     type(patch_work_t), intent(inout) :: w
     integer, intent(in) :: m
@@ -441,7 +441,7 @@ contains
         w%f(i, j) = w%a(w%idx(i), w%idx(j))
       end do
     end do
-    call cholesky_solve_in_place(nf, w%f, w%y, ierr)
+    call spd_solve_in_place(nf, w%f, w%y, ierr)
     if (ierr /= 0) return
     w%d(w%idx(1:nf)) = w%y(1:nf)
   end subroutine solve_with_zeros
@@ -450,7 +450,7 @@ contains
   !> Gaussian elimination (F = L D L^T) on the lower triangle with y carried along, one
   !> reciprocal per pivot, then the back substitution with L^T.  ierr = j > 0 when pivot j
   !> is not positive (F not positive definite).
-  pure subroutine cholesky_solve_in_place(n, f, y, ierr)
+  pure subroutine spd_solve_in_place(n, f, y, ierr)
     integer, intent(in) :: n
     real(dp), intent(inout) :: f(:,:), y(:)
     integer, intent(out) :: ierr
@@ -482,7 +482,7 @@ contains
       end do
       y(j) = s
     end do
-  end subroutine cholesky_solve_in_place
+  end subroutine spd_solve_in_place
 
   !> The lower triangle of the symmetric 6x6 matrix s, column by column.
   pure function pack_lower(s) result(p)

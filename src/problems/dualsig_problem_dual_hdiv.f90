@@ -143,7 +143,7 @@ contains
       ! the last level of a uniform run: matrix-free sweeps from the prolongated field; where
       ! they do not reach the share of est asked for (a domain so small that the divergence
       ! term dominates, whose smooth part needs the coarse correction), the nested solve
-      ! from the swept field
+      ! from the prolongated field (res then reports the nested solve)
       call solve_smoothed(mesh, f, rule, settings, nest, x, res, st, u_primal, load)
       if (.not. is_ok(st)) return
       if (res%converged) then
@@ -153,9 +153,7 @@ contains
       call nested_fallback(nest, mesh, st)
       if (.not. is_ok(st)) return
       deallocate (x)
-      n = res%iterations
       res = dual_p1_result_t()
-      res%iterations = n
     end if
     if (inexact) then
       ! the vertex patches of the V-cycle's smoother, and the level's unknowns numbered as
