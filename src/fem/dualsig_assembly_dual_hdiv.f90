@@ -32,7 +32,7 @@ module dualsig_assembly_dual_hdiv
   implicit none
   private
 
-  public :: hdiv_system_t, hdiv_element_t, hdiv_condensed_element
+  public :: hdiv_system_t, hdiv_element_t, hdiv_condensed_element, hdiv_load_values
   public :: hdiv_nside_dofs, hdiv_nfield, hdiv_side_dofs, hdiv_local_coefficients, &
             assemble_dual_hdiv, hdiv_recover, hdiv_dof_points, hdiv_point_value, &
             hdiv_bedge_dofs, hdiv_prolongate, hdiv_prolongate_interior, hdiv_prolongation_matrix
@@ -199,18 +199,10 @@ contains
     real(dp), intent(in), optional :: u(:)
     type(load_data_t), intent(in), optional :: load
     type(rt1_geometry_t) :: g
-    real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), sgn(rt1_nside), fq(rule%n), ue(3), p(2), centroid(2)
-    integer :: i, q
+    real(dp) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis), sgn(rt1_nside), fq(rule%n), ue(3)
+    integer :: i
     g = rt1_geometry(mesh%xy(:, mesh%tri(:, t)))
-    centroid = sum(g%xy, dim=2) / 3.0_dp
-    do q = 1, rule%n
-      p = matmul(g%xy, rule%bary(:, q))
-      if (present(load)) then
-        fq(q) = load%mean(t) + dot_product(load%slope(:, t), p - centroid)
-      else
-        fq(q) = f%value(p(1), p(2))
-      end if
-    end do
+    call hdiv_load_values(mesh, t, f, rule, fq, load)
     el%osc_sq = 0.0_dp
     if (present(load)) el%osc_sq = load%osc(t)**2
     call rt1_element(g, fq, rule, ref, ae, be)
@@ -226,6 +218,30 @@ contains
     end do
     el%ce = sgn * el%ce
   end subroutine hdiv_condensed_element
+
+  !> The values fq(1:rule%n) at the points of `rule` in triangle t of what the dual problem
+  !> integrates as f (assemble_dual_hdiv): Pi_1 f from its load data `load` (optional), else
+  !> f itself.
+  subroutine hdiv_load_values(mesh, t, f, rule, fq, load)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: t
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(out) :: fq(:)
+    type(load_data_t), intent(in), optional :: load
+    real(dp) :: xy(2, 3), p(2), centroid(2)
+    integer :: q
+    xy = mesh%xy(:, mesh%tri(:, t))
+    centroid = sum(xy, dim=2) / 3.0_dp
+    do q = 1, rule%n
+      p = matmul(xy, rule%bary(:, q))
+      if (present(load)) then
+        fq(q) = load%mean(t) + dot_product(load%slope(:, t), p - centroid)
+      else
+        fq(q) = f%value(p(1), p(2))
+      end if
+    end do
+  end subroutine hdiv_load_values
 
   !> a(dofs, dofs) += se, every entry in the pattern (columns sorted in every row): the 6
   !> columns sorted once, then each row's entries found by one merge pass over the row

@@ -48,6 +48,7 @@ module dualsig_elements_rt1
 
   public :: rt1_geometry_t, rt1_geometry, rt1_values, rt1_element, rt1_condense, rt1_matrix_degree
   public :: rt1_nbasis, rt1_nside, rt1_reference_t, rt1_reference
+  public :: rt1_gram, rt1_load_map, rt1_load_moments
 
   integer, parameter :: rt1_nbasis = 8    !! basis functions per triangle
   integer, parameter :: rt1_nside = 6     !! of them side functions (2 per side)
@@ -159,25 +160,68 @@ contains
     type(tri_rule_t), intent(in) :: rule
     type(rt1_reference_t), intent(in) :: ref
     real(dp), intent(out) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis)
-    real(dp) :: e1(2), e2(2), c11, c12, c22, det, s(rt1_nbasis), fb(3)
-    integer :: i, k
+    ae = rt1_gram(g, ref)
+    be = matmul(rt1_load_map(g, ref), rt1_load_moments(rule, fq))
+  end subroutine rt1_element
+
+  !> The Gram matrix ae of ||q||^2 + ||div q||^2 of triangle g in closed form (module
+  !> header): it depends on the triangle only through C = J^T J (the side lengths and det J
+  !> follow from C), so congruent triangles have the same ae.
+  pure function rt1_gram(g, ref) result(ae)
+    type(rt1_geometry_t), intent(in) :: g
+    type(rt1_reference_t), intent(in) :: ref
+    real(dp) :: ae(rt1_nbasis, rt1_nbasis)
+    real(dp) :: e1(2), e2(2), c11, c12, c22, det, s(rt1_nbasis)
+    integer :: i
     e1 = g%xy(:, 2) - g%xy(:, 1)
     e2 = g%xy(:, 3) - g%xy(:, 1)
     det = 2.0_dp * g%area
     c11 = dot_product(e1, e1)
     c12 = dot_product(e1, e2)
     c22 = dot_product(e2, e2)
-    do k = 1, 3
-      s(2 * k - 1:2 * k) = g%side(k) / ref%side(k)
-    end do
-    s(7:8) = ref%h * det / g%h
+    s = rt1_scales(g, ref)
     do i = 1, rt1_nbasis
       ae(:, i) = (s * s(i) / det) * (c11 * ref%r11(:, i) + c12 * ref%r12(:, i) + c22 * ref%r22(:, i) + ref%d(:, i))
     end do
-    ! sum_q w_q f_q bary_q: the divergences are linear in the barycentric coordinates
+  end function rt1_gram
+
+  !> The scales s_i of the basis functions of triangle g against the reference ones
+  !> (module header): |S_k| / |S^_k| for the two functions of side k, h^ det J / h_T for
+  !> the interior ones.
+  pure function rt1_scales(g, ref) result(s)
+    type(rt1_geometry_t), intent(in) :: g
+    type(rt1_reference_t), intent(in) :: ref
+    real(dp) :: s(rt1_nbasis)
+    integer :: k
+    do k = 1, 3
+      s(2 * k - 1:2 * k) = g%side(k) / ref%side(k)
+    end do
+    s(7:8) = ref%h * 2.0_dp * g%area / g%h
+  end function rt1_scales
+
+  !> The element vector as a linear map of the vertex moments of f (rt1_load_moments):
+  !> be = bmap fb with bmap(i, v) = -(s_i / 2) div^ psi^_i(a^_v), since div psi_i is linear
+  !> (module header).  Like ae, bmap depends on the triangle only through J^T J.
+  pure function rt1_load_map(g, ref) result(bmap)
+    type(rt1_geometry_t), intent(in) :: g
+    type(rt1_reference_t), intent(in) :: ref
+    real(dp) :: bmap(rt1_nbasis, 3)
+    real(dp) :: s(rt1_nbasis)
+    integer :: v
+    s = rt1_scales(g, ref)
+    do v = 1, 3
+      bmap(:, v) = -0.5_dp * s * ref%div_vertex(v, :)
+    end do
+  end function rt1_load_map
+
+  !> The vertex moments fb_v = sum_q w_q f_q lambda_v(x_q) of the values fq of f at the
+  !> points of `rule` (|T| fb_v = (f, lambda_v)_T when the rule is exact for f lambda_v).
+  pure function rt1_load_moments(rule, fq) result(fb)
+    type(tri_rule_t), intent(in) :: rule
+    real(dp), intent(in) :: fq(:)
+    real(dp) :: fb(3)
     fb = matmul(rule%bary(:, 1:rule%n), rule%w(1:rule%n) * fq(1:rule%n))
-    be = -0.5_dp * s * matmul(fb, ref%div_vertex)
-  end subroutine rt1_element
+  end function rt1_load_moments
 
   !> Static condensation of the two interior unknowns x_I (free): with the blocks of ae
   !> and be on the side (S) and interior (I) unknowns,

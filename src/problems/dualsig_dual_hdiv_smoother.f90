@@ -17,20 +17,36 @@
 !> never increases, the field stays feasible after every step, and any field it returns
 !> gives guaranteed bounds.
 !>
-!> Memory: per triangle its side unknowns, the packed 6x6 condensed matrix, the right-hand
-!> side and the condensation (352 bytes), and the triangles at every node; no matrix, no
-!> factors.  The sweeps are bound by memory latency, so everything is stored in the order
-!> of the sweep: the nodes in the caller's order (e.g. along a Z-order curve), the
-!> triangles and the side unknowns numbered as the patches first reach them.  The vectors
-!> of hdiv_local_energy and hdiv_local_sweep are in that numbering of the side unknowns
-!> (hdiv_local_permute; hdiv_local_recover returns the field in the mesh's).
+!> Shape classes: the condensed matrix of a triangle, its condensation and the maps from the
+!> load to its right-hand side depend on the triangle only through the Gram matrix J^T J of
+!> its edges a_2 - a_1, a_3 - a_1 (rt1_gram, rt1_load_map; the side lengths, det J and the
+!> P1 stiffness follow from it).  Congruent triangles with the same vertex order share
+!> them, and a uniform refinement makes no new shapes: the children of a red refinement
+!> are the parent halved, the middle one with its vertices rotated, so the last level of a
+!> uniform run from a mesh of n0 triangles has at most 3 n0 classes, whatever its size.
+!> Triangles whose J^T J agree to shape_bits bits relative to their size (shape_key) share
+!> a class; the matrices are those of the class's first triangle.  This changes only
+!> which field the sweeps converge to, by a relative 2^-shape_bits at most (the coordinates
+!> of a fine mesh are rounded at 2^-52 of the domain's size, so its children differ at
+!> that level anyway): the field is feasible whatever the matrices, and the bounds are
+!> computed from it on the mesh itself (dualsig_estimate_dual_hdiv).
+!>
+!> Memory: per triangle its side unknowns, shape class and signs, its right-hand side and
+!> the load part of its condensation (92 bytes); per shape class its condensed matrix and
+!> condensation (384 bytes); the triangles at every node; no matrix, no factors.  The
+!> sweeps are bound by memory latency, so everything is stored in the order of the sweep:
+!> the nodes in the caller's order (e.g. along a Z-order curve), the triangles and the side
+!> unknowns numbered as the patches first reach them.  The vectors of hdiv_local_energy and
+!> hdiv_local_sweep are in that numbering of the side unknowns (hdiv_local_permute;
+!> hdiv_local_recover returns the field in the mesh's).
 module dualsig_dual_hdiv_smoother
-  use dualsig_kinds, only: dp
+  use dualsig_kinds, only: dp, i8
   use dualsig_fields, only: field_t
   use dualsig_mesh, only: mesh_t
   use dualsig_quadrature, only: tri_rule_t, tri_rule
-  use dualsig_elements_rt1, only: rt1_nside, rt1_reference_t, rt1_reference, rt1_matrix_degree
-  use dualsig_assembly_dual_hdiv, only: hdiv_element_t, hdiv_condensed_element, hdiv_side_dofs
+  use dualsig_elements_rt1, only: rt1_nside, rt1_nbasis, rt1_reference_t, rt1_reference, rt1_matrix_degree, &
+                                  rt1_geometry_t, rt1_geometry, rt1_gram, rt1_load_map, rt1_load_moments, rt1_condense
+  use dualsig_assembly_dual_hdiv, only: hdiv_side_dofs, hdiv_load_values
   use dualsig_load_data, only: load_data_t
   use dualsig_status, only: status_t
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
@@ -40,20 +56,40 @@ module dualsig_dual_hdiv_smoother
   public :: hdiv_local_t, hdiv_local_build, hdiv_local_permute, hdiv_local_energy, hdiv_local_sweep, &
             hdiv_local_recover
 
-  !> Entries of the packed lower triangle of a condensed 6x6 matrix.
-  integer, parameter :: npack = rt1_nside * (rt1_nside + 1) / 2
+  !> The P1 mass matrix of a triangle over its area: int lambda_i lambda_j / |T| =
+  !> (1 + delta_ij) / 12.
+  real(dp), parameter :: p1_mass_ref(3, 3) = reshape([2.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 2.0_dp, 1.0_dp, &
+                                                      1.0_dp, 1.0_dp, 2.0_dp], [3, 3]) / 12.0_dp
+  !> Bits to which the edge Gram matrices of two triangles agree, relative to their size,
+  !> when they share a shape class (module header; shape_key).
+  integer, parameter :: shape_bits = 38
+  !> The signs of the 6 side unknowns of a triangle (local = sign * global) for each mask
+  !> of code (hdiv_local_t): bit k-1 set when those of side k are -1.
+  real(dp), parameter :: mask_sign(rt1_nside, 0:7) = reshape([ &
+    1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, &
+    1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, 1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, 1.0_dp, 1.0_dp, &
+    1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, 1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, &
+    1.0_dp, 1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp, -1.0_dp], &
+    [rt1_nside, 8])
 
-  !> The condensed systems of the triangles of a mesh (hdiv_condensed_element) and the
-  !> triangles at every node, in the sweep's numbering (module header): node position p
-  !> (the p-th of the caller's order), triangle tn, side unknown i.
+  !> The condensed systems of the triangles of a mesh (hdiv_condensed_element) by shape
+  !> class (module header) and the triangles at every node, in the sweep's numbering
+  !> (module header): node position p (the p-th of the caller's order), triangle tn, side
+  !> unknown i.  Triangle tn's condensed matrix is mask_sign * se(:, :, c) * mask_sign, its
+  !> interior unknowns rec_d(:, tn) - rec_k(:, :, c) (mask_sign * its side values), with
+  !> its class c and mask from code(tn).
   type :: hdiv_local_t
     integer :: ntri = 0
     integer :: nside = 0                   !! side unknowns (2 nedge)
     integer :: max_patch = 0               !! most unknowns of a vertex patch
+    integer :: nshape = 0                  !! shape classes
     integer, allocatable :: dofs(:,:)      !! (6, ntri) the side unknowns of each triangle
-    real(dp), allocatable :: se(:,:)       !! (npack, ntri) condensed matrix, packed lower, by columns
-    real(dp), allocatable :: ce(:,:)       !! (6, ntri) condensed right-hand side
-    real(dp), allocatable :: rec(:,:,:)    !! (2, 7, ntri) rec_k (2 x 6), then rec_d
+    !> (ntri) shape class c and signs of each triangle: code = 8 (c - 1) + mask (mask_sign)
+    integer, allocatable :: code(:)
+    real(dp), allocatable :: ce(:,:)       !! (6, ntri) condensed right-hand side, global signs
+    real(dp), allocatable :: rec_d(:,:)    !! (2, ntri) the load part of the condensation
+    real(dp), allocatable :: se(:,:,:)     !! (6, 6, nshape) condensed matrix, local signs
+    real(dp), allocatable :: rec_k(:,:,:)  !! (2, 6, nshape) condensation, local signs
     integer, allocatable :: tri_of(:)      !! (ntri) the mesh's triangle of triangle tn
     integer, allocatable :: tperm(:)       !! (ntri) the mesh's triangle t is triangle tperm(t) here
     integer, allocatable :: perm(:)        !! (nside) side unknown i of the mesh is perm(i) here
@@ -65,6 +101,26 @@ module dualsig_dual_hdiv_smoother
     real(dp) :: data_sq = 0.0_dp           !! as hdiv_system_t%data_sq
     real(dp) :: data_osc_sq = 0.0_dp       !! as hdiv_system_t%data_osc_sq
   end type hdiv_local_t
+
+  !> What the right-hand side and data terms of a shape class's triangles need: with the
+  !> vertex moments fb of the load (rt1_load_moments), ce = mask_sign * (cmap fb),
+  !> rec_d = rmap fb, shift = -1/2 (bimap fb) . rec_d; ||grad u||^2 = ue^T kp1 ue.
+  type :: shape_maps_t
+    real(dp), allocatable :: cmap(:,:,:)   !! (6, 3, nshape)
+    real(dp), allocatable :: rmap(:,:,:)   !! (2, 3, nshape)
+    real(dp), allocatable :: bimap(:,:,:)  !! (2, 3, nshape)
+    real(dp), allocatable :: kp1(:,:,:)    !! (3, 3, nshape) P1 stiffness matrix
+    real(dp), allocatable :: area(:)       !! (nshape)
+  end type shape_maps_t
+
+  !> The shape classes met so far: their keys (shape_key), first triangles, and an open
+  !> hash table of them (slot(0:size-1): class, 0 empty; at most half full).
+  type :: shape_index_t
+    integer :: n = 0
+    integer(i8), allocatable :: key(:,:)   !! (4, capacity)
+    integer, allocatable :: rep(:)         !! (capacity)
+    integer, allocatable :: slot(:)
+  end type shape_index_t
 
   !> Work arrays of one patch step (max_patch long), allocated once per sweep.
   type :: patch_work_t
@@ -79,9 +135,9 @@ module dualsig_dual_hdiv_smoother
 contains
 
   !> The condensed system of every triangle of mesh (what assemble_dual_hdiv would add into
-  !> its matrix; f, rule, u and load as there) and the triangles at every node, in the
-  !> sweep's numbering for the nodes in `order` (each node once).  Out of memory:
-  !> DS_ERR_MEMORY in st.
+  !> its matrix; f, rule, u and load as there), by shape class (module header), and the
+  !> triangles at every node, in the sweep's numbering for the nodes in `order` (each node
+  !> once).  Out of memory: DS_ERR_MEMORY in st.
   subroutine hdiv_local_build(mesh, f, rule, order, loc, st, u, load, x0, j0)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
@@ -91,41 +147,234 @@ contains
     type(status_t), intent(inout) :: st
     real(dp), intent(in), optional :: u(:)
     type(load_data_t), intent(in), optional :: load
-    !> side unknowns in the mesh's numbering (optional): j0 = J(x0) (hdiv_local_energy), summed
-    !> on the way
+    !> side unknowns in the mesh's numbering (optional): j0 = J(x0) (hdiv_local_energy)
     real(dp), intent(in), optional :: x0(:)
     real(dp), intent(out), optional :: j0
-    type(rt1_reference_t) :: ref
-    type(hdiv_element_t) :: el
-    real(dp) :: xt(rt1_nside)
-    integer :: t, tn, ist
+    type(shape_maps_t) :: maps
+    integer, allocatable :: rep(:)
+    real(dp), allocatable :: xp(:)
+    integer :: ist
     loc%ntri = mesh%ntri
     loc%nside = 2 * mesh%nedge
     call node_triangles(mesh, order, loc, st)
     if (st%code /= 0) return
     call sweep_numbering(mesh, loc, st)
     if (st%code /= 0) return
-    allocate (loc%se(npack, mesh%ntri), loc%ce(rt1_nside, mesh%ntri), loc%rec(2, 7, mesh%ntri), stat=ist)
-    if (alloc_failed(ist, st, 'the condensed RT1 systems of the triangles', (npack + rt1_nside + 14) * mesh%ntri, &
-                     BYTES_REAL)) return
-    ref = rt1_reference(tri_rule(rt1_matrix_degree))
-    if (present(j0)) j0 = 0.0_dp
-    do t = 1, mesh%ntri
-      call hdiv_condensed_element(mesh, t, f, rule, ref, el, u, load)
-      if (present(x0) .and. present(j0)) then
-        xt = x0(el%dofs)
-        j0 = j0 + 0.5_dp * dot_product(xt, matmul(el%se, xt)) - dot_product(el%ce, xt)
-      end if
-      tn = loc%tperm(t)
-      loc%data_osc_sq = loc%data_osc_sq + el%osc_sq
-      loc%data_sq = loc%data_sq + el%data_sq
-      loc%shift = loc%shift + el%shift
-      loc%se(:, tn) = pack_lower(el%se)
-      loc%ce(:, tn) = el%ce
-      loc%rec(:, 1:rt1_nside, tn) = el%rec_k
-      loc%rec(:, 7, tn) = el%rec_d
-    end do
+    call shape_classes(mesh, loc, rep, st)
+    if (st%code /= 0) return
+    call shape_tables(mesh, rep, loc, maps, st)
+    if (st%code /= 0) return
+    if (present(x0) .and. present(j0)) then
+      allocate (xp(loc%nside), stat=ist)
+      if (alloc_failed(ist, st, 'the RT1 side unknowns', loc%nside, BYTES_REAL)) return
+      call hdiv_local_permute(loc, x0, xp)
+      call triangle_loads(mesh, f, rule, maps, loc, st, u, load, xp, j0)
+    else
+      call triangle_loads(mesh, f, rule, maps, loc, st, u, load)
+    end if
   end subroutine hdiv_local_build
+
+  !> The values at the vertices of triangle t of Pi_1 f from its load data: f_T + g_T .
+  !> (a_j - x_T).
+  pure function load_vertex_values(mesh, load, t) result(fv)
+    type(mesh_t), intent(in) :: mesh
+    type(load_data_t), intent(in) :: load
+    integer, intent(in) :: t
+    real(dp) :: fv(3)
+    real(dp) :: xy(2, 3), centroid(2)
+    integer :: j
+    xy = mesh%xy(:, mesh%tri(:, t))
+    centroid = sum(xy, dim=2) / 3.0_dp
+    do j = 1, 3
+      fv(j) = load%mean(t) + dot_product(load%slope(:, t), xy(:, j) - centroid)
+    end do
+  end function load_vertex_values
+
+  !> The shape class of every triangle (module header), added to loc%code, and the first
+  !> triangle of each class (rep, the mesh's numbering).
+  subroutine shape_classes(mesh, loc, rep, st)
+    type(mesh_t), intent(in) :: mesh
+    type(hdiv_local_t), intent(inout) :: loc
+    integer, allocatable, intent(out) :: rep(:)
+    type(status_t), intent(inout) :: st
+    type(shape_index_t) :: idx
+    integer :: tn, t, c, ist
+    integer, parameter :: first_capacity = 64
+    allocate (idx%key(4, first_capacity), idx%rep(first_capacity), idx%slot(0:2 * first_capacity - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the shape classes of the triangles', 12 * first_capacity, BYTES_INT)) return
+    idx%slot = 0
+    do tn = 1, loc%ntri
+      t = loc%tri_of(tn)
+      call shape_class_of(idx, shape_key(mesh%xy(:, mesh%tri(:, t))), t, c, st)
+      if (st%code /= 0) return
+      loc%code(tn) = loc%code(tn) + 8 * (c - 1)
+    end do
+    loc%nshape = idx%n
+    rep = idx%rep(1:idx%n)
+  end subroutine shape_classes
+
+  !> The key of the shape class of the triangle xy (its vertices in the mesh's order): the
+  !> entries of J^T J = [e1.e1, e1.e2, e2.e2] (e1 = a_2 - a_1, e2 = a_3 - a_1) rounded to
+  !> shape_bits bits below their scale 2^e >= e1.e1 + e2.e2, and e.
+  pure function shape_key(xy) result(key)
+    real(dp), intent(in) :: xy(2, 3)
+    integer(i8) :: key(4)
+    real(dp) :: e1(2), e2(2), c(3)
+    integer :: e
+    e1 = xy(:, 2) - xy(:, 1)
+    e2 = xy(:, 3) - xy(:, 1)
+    c = [dot_product(e1, e1), dot_product(e1, e2), dot_product(e2, e2)]
+    e = exponent(c(1) + c(3))
+    key(1:3) = nint(scale(c, shape_bits - e), kind=i8)
+    key(4) = int(e, i8)
+  end function shape_key
+
+  !> The class c of the key (shape_key), added as a new class with first triangle t when
+  !> it is new; the arrays of idx doubled first when they are full.
+  subroutine shape_class_of(idx, key, t, c, st)
+    type(shape_index_t), intent(inout) :: idx
+    integer(i8), intent(in) :: key(4)
+    integer, intent(in) :: t
+    integer, intent(out) :: c
+    type(status_t), intent(inout) :: st
+    integer :: s, mask
+    if (idx%n == size(idx%rep)) then
+      call shape_index_grow(idx, st)
+      if (st%code /= 0) return
+    end if
+    mask = size(idx%slot) - 1
+    s = int(iand(shape_hash(key), int(mask, i8)))
+    do
+      c = idx%slot(s)
+      if (c == 0) exit
+      if (all(idx%key(:, c) == key)) return
+      s = iand(s + 1, mask)
+    end do
+    idx%n = idx%n + 1
+    c = idx%n
+    idx%key(:, c) = key
+    idx%rep(c) = t
+    idx%slot(s) = c
+  end subroutine shape_class_of
+
+  !> A hash of a shape key: its entries' bits rotated apart and folded.
+  pure integer(i8) function shape_hash(key) result(h)
+    integer(i8), intent(in) :: key(4)
+    h = ieor(ieor(key(1), ishftc(key(2), 21)), ieor(ishftc(key(3), 42), key(4)))
+    h = ieor(h, ishft(h, -29))
+    h = ieor(h, ishft(h, -13))
+  end function shape_hash
+
+  !> The arrays of idx at twice their capacity, the classes hashed again.
+  subroutine shape_index_grow(idx, st)
+    type(shape_index_t), intent(inout) :: idx
+    type(status_t), intent(inout) :: st
+    integer(i8), allocatable :: key(:,:)
+    integer, allocatable :: rep(:)
+    integer :: cap, c, k, ist
+    cap = 2 * size(idx%rep)
+    allocate (key(4, cap), rep(cap), stat=ist)
+    if (alloc_failed(ist, st, 'the shape classes of the triangles', 9 * cap, BYTES_INT)) return
+    key(:, 1:idx%n) = idx%key(:, 1:idx%n)
+    rep(1:idx%n) = idx%rep(1:idx%n)
+    call move_alloc(key, idx%key)
+    call move_alloc(rep, idx%rep)
+    deallocate (idx%slot)
+    allocate (idx%slot(0:2 * cap - 1), source=0, stat=ist)
+    if (alloc_failed(ist, st, 'the shape classes of the triangles', 2 * cap, BYTES_INT)) return
+    do c = 1, idx%n
+      k = int(iand(shape_hash(idx%key(:, c)), int(2 * cap - 1, i8)))
+      do while (idx%slot(k) /= 0)
+        k = iand(k + 1, 2 * cap - 1)
+      end do
+      idx%slot(k) = c
+    end do
+  end subroutine shape_index_grow
+
+  !> The condensed matrix and condensation of every shape class (loc%se, loc%rec_k) and
+  !> the maps of its loads (maps), from its first triangle rep(c): the element matrices of
+  !> (3.1') (rt1_gram, rt1_load_map) condensed (rt1_condense), one column of the load map
+  !> at a time.
+  subroutine shape_tables(mesh, rep, loc, maps, st)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: rep(:)
+    type(hdiv_local_t), intent(inout) :: loc
+    type(shape_maps_t), intent(out) :: maps
+    type(status_t), intent(inout) :: st
+    type(rt1_reference_t) :: ref
+    type(rt1_geometry_t) :: g
+    real(dp) :: ae(rt1_nbasis, rt1_nbasis), bmap(rt1_nbasis, 3)
+    integer :: c, v, ns, ist
+    ns = loc%nshape
+    allocate (loc%se(rt1_nside, rt1_nside, ns), loc%rec_k(2, rt1_nside, ns), maps%cmap(rt1_nside, 3, ns), &
+              maps%rmap(2, 3, ns), maps%bimap(2, 3, ns), maps%kp1(3, 3, ns), maps%area(ns), stat=ist)
+    if (alloc_failed(ist, st, 'the condensed RT1 systems of the shape classes', 80 * ns, BYTES_REAL)) return
+    ref = rt1_reference(tri_rule(rt1_matrix_degree))
+    do c = 1, ns
+      g = rt1_geometry(mesh%xy(:, mesh%tri(:, rep(c))))
+      ae = rt1_gram(g, ref)
+      bmap = rt1_load_map(g, ref)
+      do v = 1, 3
+        call rt1_condense(ae, bmap(:, v), loc%se(:, :, c), maps%cmap(:, v, c), loc%rec_k(:, :, c), &
+                          maps%rmap(:, v, c))
+      end do
+      maps%bimap(:, :, c) = bmap(7:8, :)
+      maps%kp1(:, :, c) = g%area * matmul(transpose(g%grad), g%grad)
+      maps%area(c) = g%area
+    end do
+  end subroutine shape_tables
+
+  !> Every triangle's right-hand side and load part of the condensation (loc%ce,
+  !> loc%rec_d) and its parts of loc%shift, data_sq and data_osc_sq through the maps of its
+  !> shape class: what hdiv_condensed_element gives (the same formulas, the matrices
+  !> shared).  With load, f enters as Pi_1 f from its vertex values (load_vertex_values),
+  !> so that its vertex moments and ||Pi_1 f - u||^2 are the P1 mass matrix's, exact;
+  !> without, f's values at the points of rule (hdiv_load_values).  With xp (side unknowns
+  !> in the sweep's numbering), j0 = J(xp) (hdiv_local_energy) on the way.
+  subroutine triangle_loads(mesh, f, rule, maps, loc, st, u, load, xp, j0)
+    type(mesh_t), intent(in) :: mesh
+    class(field_t), intent(in) :: f
+    type(tri_rule_t), intent(in) :: rule
+    type(shape_maps_t), intent(in) :: maps
+    type(hdiv_local_t), intent(inout) :: loc
+    type(status_t), intent(inout) :: st
+    real(dp), intent(in), optional :: u(:)
+    type(load_data_t), intent(in), optional :: load
+    real(dp), intent(in), optional :: xp(:)
+    real(dp), intent(out), optional :: j0
+    real(dp) :: fq(rule%n), fb(3), fv(3), ue(3), rd(2), sg(rt1_nside), xt(rt1_nside), dsq
+    integer :: tn, t, c, ist
+    allocate (loc%ce(rt1_nside, loc%ntri), loc%rec_d(2, loc%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the condensed RT1 right-hand sides', 8 * loc%ntri, BYTES_REAL)) return
+    ue = 0.0_dp
+    if (present(j0)) j0 = 0.0_dp
+    do tn = 1, loc%ntri
+      t = loc%tri_of(tn)
+      c = ishft(loc%code(tn), -3) + 1
+      sg = mask_sign(:, iand(loc%code(tn), 7))
+      if (present(u)) ue = u(mesh%tri(:, t))
+      if (present(load)) then
+        fv = load_vertex_values(mesh, load, t)
+        fb = matmul(p1_mass_ref, fv)
+        dsq = load%osc(t)**2 + maps%area(c) * dot_product(fv - ue, matmul(p1_mass_ref, fv - ue))
+        loc%data_osc_sq = loc%data_osc_sq + load%osc(t)**2
+      else
+        call hdiv_load_values(mesh, t, f, rule, fq, load)
+        fb = rt1_load_moments(rule, fq)
+        dsq = maps%area(c) * sum(rule%w(1:rule%n) * (fq - matmul(ue, rule%bary(:, 1:rule%n)))**2)
+      end if
+      loc%ce(:, tn) = sg * small_matvec(rt1_nside, 3, maps%cmap(:, :, c), fb)
+      rd = small_matvec(2, 3, maps%rmap(:, :, c), fb)
+      loc%rec_d(:, tn) = rd
+      loc%shift = loc%shift - 0.5_dp * dot_product(small_matvec(2, 3, maps%bimap(:, :, c), fb), rd)
+      loc%data_sq = loc%data_sq + dsq + dot_product(ue, small_matvec(3, 3, maps%kp1(:, :, c), ue))
+      if (present(j0)) then
+        xt = sg * xp(loc%dofs(:, tn))
+        j0 = j0 + 0.5_dp * dot_product(xt, small_matvec(rt1_nside, rt1_nside, loc%se(:, :, c), xt)) &
+                - dot_product(loc%ce(:, tn), sg * xt)
+      end if
+    end do
+  end subroutine triangle_loads
 
   !> The triangles at every node position p (node order(p)) with the node's local vertex
   !> number in each, the nodes on the boundary, and the largest vertex patch: two unknowns
@@ -169,7 +418,8 @@ contains
   end subroutine node_triangles
 
   !> The sweep's numbering: the triangles (loc%tri_of, and node_tri renumbered) and the side
-  !> unknowns (loc%perm) in the order the vertex patches first reach them.  Every side
+  !> unknowns (loc%perm) in the order the vertex patches first reach them; the signs of each
+  !> triangle's side unknowns (the mask of loc%code).  Every side
   !> unknown is in a patch (an edge has two ends).
   subroutine sweep_numbering(mesh, loc, st)
     type(mesh_t), intent(in) :: mesh
@@ -178,8 +428,8 @@ contains
     integer :: it, t, tn, kv, l, g, next_t, next_i, ist
     real(dp) :: sgn(rt1_nside)
     allocate (loc%tperm(mesh%ntri), loc%tri_of(mesh%ntri), loc%perm(loc%nside), loc%dofs(rt1_nside, mesh%ntri), &
-              stat=ist)
-    if (alloc_failed(ist, st, 'the numbering of the patch sweeps', 8 * mesh%ntri + loc%nside, BYTES_INT)) return
+              loc%code(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the numbering of the patch sweeps', 9 * mesh%ntri + loc%nside, BYTES_INT)) return
     loc%tperm = 0
     loc%perm = 0
     next_t = 0
@@ -192,6 +442,7 @@ contains
         loc%tperm(t) = next_t
         loc%tri_of(next_t) = t
         call hdiv_side_dofs(mesh, t, loc%dofs(:, next_t), sgn)     ! the mesh's numbering for now
+        loc%code(next_t) = merge(1, 0, sgn(2) < 0.0_dp) + merge(2, 0, sgn(4) < 0.0_dp) + merge(4, 0, sgn(6) < 0.0_dp)
       end if
       tn = loc%tperm(t)
       do l = 1, rt1_nside
@@ -227,13 +478,14 @@ contains
   pure real(dp) function hdiv_local_energy(loc, xs) result(j)
     type(hdiv_local_t), intent(in) :: loc
     real(dp), intent(in) :: xs(:)
-    real(dp) :: se(rt1_nside, rt1_nside), xt(rt1_nside)
-    integer :: t
+    real(dp) :: xt(rt1_nside)
+    integer :: t, c
     j = 0.0_dp
     do t = 1, loc%ntri
-      se = unpack_lower(loc%se(:, t))
-      xt = xs(loc%dofs(:, t))
-      j = j + 0.5_dp * dot_product(xt, matmul(se, xt)) - dot_product(loc%ce(:, t), xt)
+      c = ishft(loc%code(t), -3) + 1
+      xt = mask_sign(:, iand(loc%code(t), 7)) * xs(loc%dofs(:, t))
+      j = j + 0.5_dp * dot_product(xt, small_matvec(rt1_nside, rt1_nside, loc%se(:, :, c), xt)) &
+            - dot_product(loc%ce(:, t), xs(loc%dofs(:, t)))
     end do
   end function hdiv_local_energy
 
@@ -244,12 +496,14 @@ contains
     type(hdiv_local_t), intent(in) :: loc
     real(dp), intent(in) :: xp(:)
     real(dp), intent(out) :: x(:)
-    integer :: tn, t, n
+    integer :: tn, t, n, c
     n = loc%nside
     x(1:n) = xp(loc%perm)
     do t = 1, loc%ntri
       tn = loc%tperm(t)
-      x(n + 2 * t - 1:n + 2 * t) = loc%rec(:, 7, tn) - matmul(loc%rec(:, 1:rt1_nside, tn), xp(loc%dofs(:, tn)))
+      c = ishft(loc%code(tn), -3) + 1
+      x(n + 2 * t - 1:n + 2 * t) = loc%rec_d(:, tn) &
+        - small_matvec(2, rt1_nside, loc%rec_k(:, :, c), mask_sign(:, iand(loc%code(tn), 7)) * xp(loc%dofs(:, tn)))
     end do
   end subroutine hdiv_local_recover
 
@@ -308,8 +562,8 @@ contains
     integer, intent(inout) :: list(:)
     integer, intent(out) :: m
     real(dp), intent(inout) :: a(:,:), r(:)
-    real(dp) :: xt(rt1_nside), s, se(rt1_nside, rt1_nside)
-    integer :: it, t, kv, km, ia, ib, l, l2, i, g, lp(4), ip(4)
+    real(dp) :: xt(rt1_nside), s, sg(rt1_nside)
+    integer :: it, t, kv, km, ia, ib, l, l2, i, g, c, lp(4), ip(4)
     m = 0
     do it = loc%node_ptr(p), loc%node_ptr(p + 1) - 1
       t = loc%node_tri(it)
@@ -332,19 +586,20 @@ contains
       kv = loc%node_corner(it)
       km = mod(kv + 1, 3) + 1
       lp = [2 * kv - 1, 2 * kv, 2 * km - 1, 2 * km]
-      xt = xs(loc%dofs(:, t))
+      c = ishft(loc%code(t), -3) + 1
+      sg = mask_sign(:, iand(loc%code(t), 7))
+      xt = sg * xs(loc%dofs(:, t))
       ip = pos(loc%dofs(lp, t))
-      se = unpack_lower(loc%se(:, t))
       do ia = 1, 4
         l = lp(ia)
         i = ip(ia)
-        s = loc%ce(l, t)
+        s = 0.0_dp
         do l2 = 1, rt1_nside
-          s = s - se(l2, l) * xt(l2)
+          s = s + loc%se(l2, l, c) * xt(l2)
         end do
-        r(i) = r(i) + s
+        r(i) = r(i) + loc%ce(l, t) - sg(l) * s
         do ib = 1, 4
-          a(i, ip(ib)) = a(i, ip(ib)) + se(lp(ib), l)
+          a(i, ip(ib)) = a(i, ip(ib)) + sg(l) * sg(lp(ib)) * loc%se(lp(ib), l, c)
         end do
       end do
     end do
@@ -484,32 +739,17 @@ contains
     end do
   end subroutine spd_solve_in_place
 
-  !> The lower triangle of the symmetric 6x6 matrix s, column by column.
-  pure function pack_lower(s) result(p)
-    real(dp), intent(in) :: s(rt1_nside, rt1_nside)
-    real(dp) :: p(npack)
-    integer :: i, j, k
-    k = 0
-    do j = 1, rt1_nside
-      do i = j, rt1_nside
-        k = k + 1
-        p(k) = s(i, j)
-      end do
+  !> y = a x for a small matrix a (m x n) of a table: explicit loops (the sizes of the
+  !> tables' slices are not known to the compiler, and the runtime's matmul costs more
+  !> than the product at these sizes).
+  pure function small_matvec(m, n, a, x) result(y)
+    integer, intent(in) :: m, n
+    real(dp), intent(in) :: a(m, n), x(n)
+    real(dp) :: y(m)
+    integer :: j
+    y = a(:, 1) * x(1)
+    do j = 2, n
+      y = y + a(:, j) * x(j)
     end do
-  end function pack_lower
-
-  !> The symmetric 6x6 matrix of its packed lower triangle p (pack_lower).
-  pure function unpack_lower(p) result(s)
-    real(dp), intent(in) :: p(npack)
-    real(dp) :: s(rt1_nside, rt1_nside)
-    integer :: i, j, k
-    k = 0
-    do j = 1, rt1_nside
-      do i = j, rt1_nside
-        k = k + 1
-        s(i, j) = p(k)
-        s(j, i) = p(k)
-      end do
-    end do
-  end function unpack_lower
+  end function small_matvec
 end module dualsig_dual_hdiv_smoother
