@@ -50,6 +50,7 @@ module dualsig_dual_hdiv_smoother
   use dualsig_load_data, only: load_data_t
   use dualsig_status, only: status_t
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
+  use dualsig_key_index, only: key_index_t, key_index_init, key_index_add, key_index_find
   implicit none
   private
 
@@ -97,6 +98,12 @@ module dualsig_dual_hdiv_smoother
     !> the node's local vertex number in each, node_corner
     integer, allocatable :: node_ptr(:), node_tri(:), node_corner(:)
     logical, allocatable :: node_boundary(:)   !! (npos) the node lies on the boundary
+    !> the types of the vertex patches (patch_types): node position p's, 0 for none; the
+    !> unknowns and the LDL^T factor (ldl_factor) of the sign-normalised block of each type
+    integer :: ntype = 0
+    integer, allocatable :: node_type(:)   !! (npos)
+    integer, allocatable :: type_m(:)      !! (ntype)
+    real(dp), allocatable :: type_fac(:,:,:)   !! (max_patch, max_patch, ntype)
     real(dp) :: shift = 0.0_dp             !! as hdiv_system_t%shift
     real(dp) :: data_sq = 0.0_dp           !! as hdiv_system_t%data_sq
     real(dp) :: data_osc_sq = 0.0_dp       !! as hdiv_system_t%data_osc_sq
@@ -113,20 +120,11 @@ module dualsig_dual_hdiv_smoother
     real(dp), allocatable :: area(:)       !! (nshape)
   end type shape_maps_t
 
-  !> The shape classes met so far: their keys (shape_key), first triangles, and an open
-  !> hash table of them (slot(0:size-1): class, 0 empty; at most half full).
-  type :: shape_index_t
-    integer :: n = 0
-    integer(i8), allocatable :: key(:,:)   !! (4, capacity)
-    integer, allocatable :: rep(:)         !! (capacity)
-    integer, allocatable :: slot(:)
-  end type shape_index_t
-
   !> Work arrays of one patch step (max_patch long), allocated once per sweep.
   type :: patch_work_t
     real(dp), allocatable :: a(:,:)        !! the patch's block of S
     real(dp), allocatable :: f(:,:)        !! Cholesky factor of its free part
-    real(dp), allocatable :: r(:), x(:), d(:), d0(:), y(:)
+    real(dp), allocatable :: r(:), x(:), d(:), d0(:), y(:), sigma(:)
     integer, allocatable :: list(:), idx(:)
     logical, allocatable :: at_zero(:), bnd(:)
     real(dp) :: dj = 0.0_dp                !! the change of J by the step d
@@ -151,18 +149,21 @@ contains
     real(dp), intent(in), optional :: x0(:)
     real(dp), intent(out), optional :: j0
     type(shape_maps_t) :: maps
-    integer, allocatable :: rep(:)
+    integer, allocatable :: rep(:), cls(:)
     real(dp), allocatable :: xp(:)
     integer :: ist
     loc%ntri = mesh%ntri
     loc%nside = 2 * mesh%nedge
     call node_triangles(mesh, order, loc, st)
     if (st%code /= 0) return
-    call sweep_numbering(mesh, loc, st)
+    call shape_classes(mesh, cls, rep, loc%nshape, st)
     if (st%code /= 0) return
-    call shape_classes(mesh, loc, rep, st)
+    call canonical_node_order(loc, cls)
+    call sweep_numbering(mesh, loc, cls, st)
     if (st%code /= 0) return
     call shape_tables(mesh, rep, loc, maps, st)
+    if (st%code /= 0) return
+    call patch_types(loc, st)
     if (st%code /= 0) return
     if (present(x0) .and. present(j0)) then
       allocate (xp(loc%nside), stat=ist)
@@ -190,27 +191,26 @@ contains
     end do
   end function load_vertex_values
 
-  !> The shape class of every triangle (module header), added to loc%code, and the first
-  !> triangle of each class (rep, the mesh's numbering).
-  subroutine shape_classes(mesh, loc, rep, st)
+  !> The shape class cls(t) of every triangle t (module header), the first triangle of each
+  !> class (rep) and their number, nshape.
+  subroutine shape_classes(mesh, cls, rep, nshape, st)
     type(mesh_t), intent(in) :: mesh
-    type(hdiv_local_t), intent(inout) :: loc
-    integer, allocatable, intent(out) :: rep(:)
+    integer, allocatable, intent(out) :: cls(:), rep(:)
+    integer, intent(out) :: nshape
     type(status_t), intent(inout) :: st
-    type(shape_index_t) :: idx
-    integer :: tn, t, c, ist
-    integer, parameter :: first_capacity = 64
-    allocate (idx%key(4, first_capacity), idx%rep(first_capacity), idx%slot(0:2 * first_capacity - 1), stat=ist)
-    if (alloc_failed(ist, st, 'the shape classes of the triangles', 12 * first_capacity, BYTES_INT)) return
-    idx%slot = 0
-    do tn = 1, loc%ntri
-      t = loc%tri_of(tn)
-      call shape_class_of(idx, shape_key(mesh%xy(:, mesh%tri(:, t))), t, c, st)
+    type(key_index_t) :: idx
+    integer :: t, ist
+    nshape = 0
+    allocate (cls(mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the shape classes of the triangles', mesh%ntri, BYTES_INT)) return
+    call key_index_init(idx, 4, st)
+    if (st%code /= 0) return
+    do t = 1, mesh%ntri
+      call key_index_add(idx, shape_key(mesh%xy(:, mesh%tri(:, t))), t, cls(t), st)
       if (st%code /= 0) return
-      loc%code(tn) = loc%code(tn) + 8 * (c - 1)
     end do
-    loc%nshape = idx%n
-    rep = idx%rep(1:idx%n)
+    nshape = idx%n
+    rep = idx%first(1:idx%n)
   end subroutine shape_classes
 
   !> The key of the shape class of the triangle xy (its vertices in the mesh's order): the
@@ -229,67 +229,125 @@ contains
     key(4) = int(e, i8)
   end function shape_key
 
-  !> The class c of the key (shape_key), added as a new class with first triangle t when
-  !> it is new; the arrays of idx doubled first when they are full.
-  subroutine shape_class_of(idx, key, t, c, st)
-    type(shape_index_t), intent(inout) :: idx
-    integer(i8), intent(in) :: key(4)
-    integer, intent(in) :: t
-    integer, intent(out) :: c
-    type(status_t), intent(inout) :: st
-    integer :: s, mask
-    if (idx%n == size(idx%rep)) then
-      call shape_index_grow(idx, st)
-      if (st%code /= 0) return
-    end if
-    mask = size(idx%slot) - 1
-    s = int(iand(shape_hash(key), int(mask, i8)))
-    do
-      c = idx%slot(s)
-      if (c == 0) exit
-      if (all(idx%key(:, c) == key)) return
-      s = iand(s + 1, mask)
-    end do
-    idx%n = idx%n + 1
-    c = idx%n
-    idx%key(:, c) = key
-    idx%rep(c) = t
-    idx%slot(s) = c
-  end subroutine shape_class_of
-
-  !> A hash of a shape key: its entries' bits rotated apart and folded.
-  pure integer(i8) function shape_hash(key) result(h)
-    integer(i8), intent(in) :: key(4)
-    h = ieor(ieor(key(1), ishftc(key(2), 21)), ieor(ishftc(key(3), 42), key(4)))
-    h = ieor(h, ishft(h, -29))
-    h = ieor(h, ishft(h, -13))
-  end function shape_hash
-
-  !> The arrays of idx at twice their capacity, the classes hashed again.
-  subroutine shape_index_grow(idx, st)
-    type(shape_index_t), intent(inout) :: idx
-    type(status_t), intent(inout) :: st
-    integer(i8), allocatable :: key(:,:)
-    integer, allocatable :: rep(:)
-    integer :: cap, c, k, ist
-    cap = 2 * size(idx%rep)
-    allocate (key(4, cap), rep(cap), stat=ist)
-    if (alloc_failed(ist, st, 'the shape classes of the triangles', 9 * cap, BYTES_INT)) return
-    key(:, 1:idx%n) = idx%key(:, 1:idx%n)
-    rep(1:idx%n) = idx%rep(1:idx%n)
-    call move_alloc(key, idx%key)
-    call move_alloc(rep, idx%rep)
-    deallocate (idx%slot)
-    allocate (idx%slot(0:2 * cap - 1), source=0, stat=ist)
-    if (alloc_failed(ist, st, 'the shape classes of the triangles', 2 * cap, BYTES_INT)) return
-    do c = 1, idx%n
-      k = int(iand(shape_hash(idx%key(:, c)), int(2 * cap - 1, i8)))
-      do while (idx%slot(k) /= 0)
-        k = iand(k + 1, 2 * cap - 1)
+  !> The triangles at every node in a canonical order: by shape class, then by the node's
+  !> corner in them (stable), so that vertex patches alike in shape list their unknowns
+  !> alike (patch_types).  Any order of the triangles at a node is a valid patch.
+  pure subroutine canonical_node_order(loc, cls)
+    type(hdiv_local_t), intent(inout) :: loc
+    integer, intent(in) :: cls(:)
+    integer :: p, i, j, t, kv, key
+    do p = 1, size(loc%node_boundary)
+      do i = loc%node_ptr(p) + 1, loc%node_ptr(p + 1) - 1
+        t = loc%node_tri(i)
+        kv = loc%node_corner(i)
+        key = 3 * cls(t) + kv
+        j = i - 1
+        do while (j >= loc%node_ptr(p))
+          if (3 * cls(loc%node_tri(j)) + loc%node_corner(j) <= key) exit
+          loc%node_tri(j + 1) = loc%node_tri(j)
+          loc%node_corner(j + 1) = loc%node_corner(j)
+          j = j - 1
+        end do
+        loc%node_tri(j + 1) = t
+        loc%node_corner(j + 1) = kv
       end do
-      idx%slot(k) = c
     end do
-  end subroutine shape_index_grow
+  end subroutine canonical_node_order
+
+  !> The types of the vertex patches of the interior nodes (loc%node_type, type_m,
+  !> type_fac): two patches are of one type when their triangles, in the canonical order,
+  !> have the same shape classes and corners and place their unknowns at the same patch
+  !> positions.  Then their blocks are sigma_i sigma_j A^_ij with the same A^ (sigma_i: the
+  !> sign of unknown i in the first triangle that lists it; in the other triangle at its
+  !> edge it has the opposite sign), so A^ is factored once per type (LDL^T) and a sweep
+  !> only forms the residual.  Types are made for at most max(min_types, npos /
+  !> nodes_per_type) patches' worth of factors; the other nodes, and those whose A^ is
+  !> not positive definite, keep type 0 (block formed and factored in the sweep).
+  subroutine patch_types(loc, st)
+    type(hdiv_local_t), intent(inout) :: loc
+    type(status_t), intent(inout) :: st
+    integer, parameter :: min_types = 64, nodes_per_type = 16
+    type(key_index_t) :: idx
+    integer(i8), allocatable :: key(:)
+    integer, allocatable :: pos(:), list(:)
+    real(dp), allocatable :: a(:,:), sigma(:), fac(:,:,:), grown(:,:,:)
+    logical, allocatable :: ok(:)
+    integer :: p, npos, mp, maxdeg, c, m, ist, max_types, ierr
+    npos = size(loc%node_boundary)
+    mp = loc%max_patch
+    maxdeg = maxval(loc%node_ptr(2:npos + 1) - loc%node_ptr(1:npos))
+    max_types = max(min_types, npos / nodes_per_type)
+    allocate (loc%node_type(npos), source=0, stat=ist)
+    if (alloc_failed(ist, st, 'the types of the vertex patches', npos, BYTES_INT)) return
+    allocate (key(1 + 6 * maxdeg), pos(loc%nside), list(mp), a(mp, mp), sigma(mp), loc%type_m(max_types), &
+              ok(max_types), fac(mp, mp, min_types), stat=ist)
+    if (alloc_failed(ist, st, 'the types of the vertex patches', loc%nside + 2 * max_types + mp * mp * min_types, &
+                     BYTES_REAL)) return
+    pos = 0
+    call key_index_init(idx, size(key), st)
+    if (st%code /= 0) return
+    do p = 1, npos
+      if (loc%node_boundary(p)) cycle
+      call patch_list(loc, p, pos, list, sigma, m)
+      call patch_key(loc, p, pos, key)
+      c = key_index_find(idx, key)
+      if (c == 0 .and. idx%n < max_types) then
+        ! a new type: its block, sign-normalised, factored
+        call key_index_add(idx, key, p, c, st)
+        if (st%code /= 0) return
+        if (c > size(fac, 3)) then
+          allocate (grown(mp, mp, 2 * size(fac, 3)), stat=ist)
+          if (alloc_failed(ist, st, 'the factors of the patch types', 2 * mp * mp * size(fac, 3), BYTES_REAL)) return
+          grown(:, :, 1:size(fac, 3)) = fac
+          call move_alloc(grown, fac)
+        end if
+        call patch_block(loc, p, pos, a)
+        a(1:m, 1:m) = a(1:m, 1:m) * spread(sigma(1:m), 1, m) * spread(sigma(1:m), 2, m)
+        fac(1:m, 1:m, c) = a(1:m, 1:m)
+        call ldl_factor(m, fac(:, :, c), ierr)
+        loc%type_m(c) = m
+        ok(c) = ierr == 0
+      end if
+      if (c > 0) then
+        if (ok(c)) loc%node_type(p) = c
+      end if
+      pos(list(1:m)) = 0
+    end do
+    loc%ntype = idx%n
+    loc%type_m = loc%type_m(1:idx%n)
+    loc%type_fac = fac(:, :, 1:idx%n)
+  end subroutine patch_types
+
+  !> The key of the type of the vertex patch of node position p (patch_types): the number
+  !> of its triangles, then for each its shape class, the node's corner and the patch
+  !> positions of its four unknowns at the node (pos, set by patch_list); zeros after.
+  pure subroutine patch_key(loc, p, pos, key)
+    type(hdiv_local_t), intent(in) :: loc
+    integer, intent(in) :: p
+    integer, intent(in) :: pos(:)
+    integer(i8), intent(out) :: key(:)
+    integer :: it, t, kv, k
+    key = 0_i8
+    key(1) = loc%node_ptr(p + 1) - loc%node_ptr(p)
+    k = 1
+    do it = loc%node_ptr(p), loc%node_ptr(p + 1) - 1
+      t = loc%node_tri(it)
+      kv = loc%node_corner(it)
+      key(k + 1) = ishft(loc%code(t), -3)
+      key(k + 2) = kv
+      key(k + 3:k + 6) = pos(loc%dofs(corner_dofs(kv), t))
+      k = k + 6
+    end do
+  end subroutine patch_key
+
+  !> The local unknowns of a triangle at its corner kv: those of its sides kv
+  !> (a_kv a_kv+1) and kv - 1.
+  pure function corner_dofs(kv) result(lp)
+    integer, intent(in) :: kv
+    integer :: lp(4), km
+    km = mod(kv + 1, 3) + 1
+    lp = [2 * kv - 1, 2 * kv, 2 * km - 1, 2 * km]
+  end function corner_dofs
 
   !> The condensed matrix and condensation of every shape class (loc%se, loc%rec_k) and
   !> the maps of its loads (maps), from its first triangle rep(c): the element matrices of
@@ -418,12 +476,13 @@ contains
   end subroutine node_triangles
 
   !> The sweep's numbering: the triangles (loc%tri_of, and node_tri renumbered) and the side
-  !> unknowns (loc%perm) in the order the vertex patches first reach them; the signs of each
-  !> triangle's side unknowns (the mask of loc%code).  Every side
+  !> unknowns (loc%perm) in the order the vertex patches first reach them; the shape class and
+  !> the signs of each triangle's side unknowns (loc%code).  Every side
   !> unknown is in a patch (an edge has two ends).
-  subroutine sweep_numbering(mesh, loc, st)
+  subroutine sweep_numbering(mesh, loc, cls, st)
     type(mesh_t), intent(in) :: mesh
     type(hdiv_local_t), intent(inout) :: loc
+    integer, intent(in) :: cls(:)      !! (ntri) the shape class of each triangle of the mesh
     type(status_t), intent(inout) :: st
     integer :: it, t, tn, kv, l, g, next_t, next_i, ist
     real(dp) :: sgn(rt1_nside)
@@ -442,7 +501,8 @@ contains
         loc%tperm(t) = next_t
         loc%tri_of(next_t) = t
         call hdiv_side_dofs(mesh, t, loc%dofs(:, next_t), sgn)     ! the mesh's numbering for now
-        loc%code(next_t) = merge(1, 0, sgn(2) < 0.0_dp) + merge(2, 0, sgn(4) < 0.0_dp) + merge(4, 0, sgn(6) < 0.0_dp)
+        loc%code(next_t) = 8 * (cls(t) - 1) + merge(1, 0, sgn(2) < 0.0_dp) + merge(2, 0, sgn(4) < 0.0_dp) &
+                           + merge(4, 0, sgn(6) < 0.0_dp)
       end if
       tn = loc%tperm(t)
       do l = 1, rt1_nside
@@ -509,8 +569,9 @@ contains
 
   !> One projected multiplicative sweep over the vertex patches, in the order of loc (module
   !> header), on the side unknowns xs in the sweep's numbering: xs stays feasible
-  !> (bounded(i): xs(i) >= 0, same numbering) and J decreases by dj >= 0.  Out of memory:
-  !> DS_ERR_MEMORY in st.
+  !> (bounded(i): xs(i) >= 0, same numbering) and J decreases by dj >= 0.  A patch of a type
+  !> (patch_types) is solved with its type's factor; the others have their block formed
+  !> and factored here.  Out of memory: DS_ERR_MEMORY in st.
   subroutine hdiv_local_sweep(loc, bounded, xs, dj, st)
     type(hdiv_local_t), intent(in) :: loc
     logical, intent(in) :: bounded(:)
@@ -519,28 +580,40 @@ contains
     type(status_t), intent(inout) :: st
     type(patch_work_t) :: w
     integer, allocatable :: pos(:)
-    integer :: iv, m, ist, mp
+    integer :: iv, m, ist, mp, k
     dj = 0.0_dp
     mp = loc%max_patch
     allocate (pos(loc%nside), source=0, stat=ist)
     if (alloc_failed(ist, st, 'the patch positions of the RT1 unknowns', loc%nside, BYTES_INT)) return
     allocate (w%a(mp, mp), w%f(mp, mp), w%r(mp), w%d(mp), w%d0(mp), w%y(mp), w%list(mp), w%idx(mp), &
-              w%at_zero(mp), w%bnd(mp), w%x(mp), stat=ist)
-    if (alloc_failed(ist, st, 'the block of a vertex patch', mp * (2 * mp + 8), BYTES_REAL)) return
+              w%at_zero(mp), w%bnd(mp), w%x(mp), w%sigma(mp), stat=ist)
+    if (alloc_failed(ist, st, 'the block of a vertex patch', mp * (2 * mp + 9), BYTES_REAL)) return
     do iv = 1, size(loc%node_boundary)
-      call patch_system(loc, iv, xs, pos, w%list, m, w%a, w%r)
+      call patch_list(loc, iv, pos, w%list, w%sigma, m)
       if (m > 0) then
-        w%x(1:m) = xs(w%list(1:m))
-        ! only the patches of boundary nodes hold bounded unknowns (those of boundary edges)
-        if (loc%node_boundary(iv)) then
-          w%bnd(1:m) = bounded(w%list(1:m))
-          call patch_step(w, m)
-        else
+        call patch_residual(loc, iv, xs, pos, w%r)
+        k = loc%node_type(iv)
+        if (k > 0) then
+          ! d = sigma A^-1 sigma r with the type's factor of A^ (patch_types)
+          w%d(1:m) = w%sigma(1:m) * w%r(1:m)
+          call ldl_solve(m, loc%type_fac(:, :, k), w%d)
+          w%d(1:m) = w%sigma(1:m) * w%d(1:m)
+          w%dj = min(-0.5_dp * dot_product(w%r(1:m), w%d(1:m)), 0.0_dp)
           w%bnd(1:m) = .false.
-          call free_patch_step(w, m)
+        else
+          call patch_block(loc, iv, pos, w%a)
+          w%x(1:m) = xs(w%list(1:m))
+          ! only the patches of boundary nodes hold bounded unknowns (those of boundary edges)
+          if (loc%node_boundary(iv)) then
+            w%bnd(1:m) = bounded(w%list(1:m))
+            call patch_step(w, m)
+          else
+            w%bnd(1:m) = .false.
+            call free_patch_step(w, m)
+          end if
         end if
         if (w%dj < 0.0_dp) then
-          xs(w%list(1:m)) = w%x(1:m) + w%d(1:m)
+          xs(w%list(1:m)) = xs(w%list(1:m)) + w%d(1:m)
           where (w%bnd(1:m)) xs(w%list(1:m)) = max(xs(w%list(1:m)), 0.0_dp)
           dj = dj - w%dj
         end if
@@ -549,61 +622,97 @@ contains
     end do
   end subroutine hdiv_local_sweep
 
-  !> The vertex patch of node position p: its unknowns list(1:m) (pos(list(k)) = k on
-  !> return; the caller resets pos), its block a(1:m, 1:m) of S and its residual
-  !> r = (c - S xs) on it, from the triangles at the node.  The sides of triangle t through
-  !> the node a_kv are its local sides kv (a_kv a_kv+1) and kv - 1: local unknowns 2kv-1,
-  !> 2kv, 2km-1, 2km.
-  pure subroutine patch_system(loc, p, xs, pos, list, m, a, r)
+  !> The unknowns list(1:m) of the vertex patch of node position p, in the order its
+  !> triangles reach them (pos(list(k)) = k on return; the caller resets pos), and the sign
+  !> sigma(k) of each in the first triangle that lists it.  The sides of triangle t
+  !> through the node a_kv are its local sides kv and kv - 1 (corner_dofs).
+  pure subroutine patch_list(loc, p, pos, list, sigma, m)
     type(hdiv_local_t), intent(in) :: loc
     integer, intent(in) :: p
-    real(dp), intent(in) :: xs(:)
     integer, intent(inout) :: pos(:)
     integer, intent(inout) :: list(:)
+    real(dp), intent(inout) :: sigma(:)
     integer, intent(out) :: m
-    real(dp), intent(inout) :: a(:,:), r(:)
-    real(dp) :: xt(rt1_nside), s, sg(rt1_nside)
-    integer :: it, t, kv, km, ia, ib, l, l2, i, g, c, lp(4), ip(4)
+    integer :: it, t, ia, g, lp(4)
     m = 0
     do it = loc%node_ptr(p), loc%node_ptr(p + 1) - 1
       t = loc%node_tri(it)
-      kv = loc%node_corner(it)
-      km = mod(kv + 1, 3) + 1
-      lp = [2 * kv - 1, 2 * kv, 2 * km - 1, 2 * km]
+      lp = corner_dofs(loc%node_corner(it))
       do ia = 1, 4
         g = loc%dofs(lp(ia), t)
         if (pos(g) /= 0) cycle
         m = m + 1
         list(m) = g
         pos(g) = m
-        r(m) = 0.0_dp
-        a(1:m, m) = 0.0_dp
-        a(m, 1:m) = 0.0_dp
+        sigma(m) = mask_sign(lp(ia), iand(loc%code(t), 7))
+      end do
+    end do
+  end subroutine patch_list
+
+  !> The residual r = c - S xs on the unknowns of the vertex patch of node position p (pos
+  !> from patch_list), from the triangles at the node.  Every row of a patch unknown gets
+  !> its entries from the triangles at its edge, which all lie at the node.
+  pure subroutine patch_residual(loc, p, xs, pos, r)
+    type(hdiv_local_t), intent(in) :: loc
+    integer, intent(in) :: p
+    real(dp), intent(in) :: xs(:)
+    integer, intent(in) :: pos(:)
+    real(dp), intent(inout) :: r(:)
+    real(dp) :: xt(rt1_nside), s, sg(rt1_nside)
+    integer :: it, t, ia, l, l2, i, c, lp(4)
+    do it = loc%node_ptr(p), loc%node_ptr(p + 1) - 1
+      t = loc%node_tri(it)
+      lp = corner_dofs(loc%node_corner(it))
+      do ia = 1, 4
+        r(pos(loc%dofs(lp(ia), t))) = 0.0_dp
       end do
     end do
     do it = loc%node_ptr(p), loc%node_ptr(p + 1) - 1
       t = loc%node_tri(it)
-      kv = loc%node_corner(it)
-      km = mod(kv + 1, 3) + 1
-      lp = [2 * kv - 1, 2 * kv, 2 * km - 1, 2 * km]
+      lp = corner_dofs(loc%node_corner(it))
       c = ishft(loc%code(t), -3) + 1
       sg = mask_sign(:, iand(loc%code(t), 7))
       xt = sg * xs(loc%dofs(:, t))
-      ip = pos(loc%dofs(lp, t))
       do ia = 1, 4
         l = lp(ia)
-        i = ip(ia)
+        i = pos(loc%dofs(l, t))
         s = 0.0_dp
         do l2 = 1, rt1_nside
           s = s + loc%se(l2, l, c) * xt(l2)
         end do
         r(i) = r(i) + loc%ce(l, t) - sg(l) * s
+      end do
+    end do
+  end subroutine patch_residual
+
+  !> The block a(1:m, 1:m) of S of the vertex patch of node position p (pos from
+  !> patch_list), from the triangles at the node.
+  pure subroutine patch_block(loc, p, pos, a)
+    type(hdiv_local_t), intent(in) :: loc
+    integer, intent(in) :: p
+    integer, intent(in) :: pos(:)
+    real(dp), intent(inout) :: a(:,:)
+    real(dp) :: sg(rt1_nside)
+    integer :: it, t, ia, ib, c, m, lp(4), ip(4)
+    m = 0
+    do it = loc%node_ptr(p), loc%node_ptr(p + 1) - 1
+      t = loc%node_tri(it)
+      m = max(m, maxval(pos(loc%dofs(corner_dofs(loc%node_corner(it)), t))))
+    end do
+    a(1:m, 1:m) = 0.0_dp
+    do it = loc%node_ptr(p), loc%node_ptr(p + 1) - 1
+      t = loc%node_tri(it)
+      lp = corner_dofs(loc%node_corner(it))
+      ip = pos(loc%dofs(lp, t))
+      c = ishft(loc%code(t), -3) + 1
+      sg = mask_sign(:, iand(loc%code(t), 7))
+      do ia = 1, 4
         do ib = 1, 4
-          a(i, ip(ib)) = a(i, ip(ib)) + sg(l) * sg(lp(ib)) * loc%se(lp(ib), l, c)
+          a(ip(ia), ip(ib)) = a(ip(ia), ip(ib)) + sg(lp(ia)) * sg(lp(ib)) * loc%se(lp(ib), lp(ia), c)
         end do
       end do
     end do
-  end subroutine patch_system
+  end subroutine patch_block
 
   !> patch_step for a patch without bounded unknowns: w%d = a^{-1} r, w%dj = -r^T d / 2 (or
   !> d = 0, dj = 0 when the block is not positive definite).
@@ -701,16 +810,27 @@ contains
     w%d(w%idx(1:nf)) = w%y(1:nf)
   end subroutine solve_with_zeros
 
-  !> y = F^{-1} y for the SPD matrix F whose lower triangle is f(1:n, 1:n): symmetric
-  !> Gaussian elimination (F = L D L^T) on the lower triangle with y carried along, one
-  !> reciprocal per pivot, then the back substitution with L^T.  ierr = j > 0 when pivot j
-  !> is not positive (F not positive definite).
+  !> y = F^{-1} y for the SPD matrix F whose lower triangle is f(1:n, 1:n) (ldl_factor,
+  !> then ldl_solve; f holds the factor on return).  ierr = j > 0 when pivot j is not
+  !> positive (F not positive definite).
   pure subroutine spd_solve_in_place(n, f, y, ierr)
     integer, intent(in) :: n
     real(dp), intent(inout) :: f(:,:), y(:)
     integer, intent(out) :: ierr
+    call ldl_factor(n, f, ierr)
+    if (ierr /= 0) return
+    call ldl_solve(n, f, y)
+  end subroutine spd_solve_in_place
+
+  !> F = L D L^T for the SPD matrix F whose lower triangle is f(1:n, 1:n): symmetric
+  !> Gaussian elimination on the lower triangle, L (unit, strictly lower) and D (diagonal)
+  !> left in f.  ierr = j > 0 when pivot j is not positive (F not positive definite).
+  pure subroutine ldl_factor(n, f, ierr)
+    integer, intent(in) :: n
+    real(dp), intent(inout) :: f(:,:)
+    integer, intent(out) :: ierr
     integer :: i, j, k
-    real(dp) :: rpiv, s, fkj
+    real(dp) :: rpiv, fkj
     ierr = 0
     do j = 1, n
       if (.not. f(j, j) > 0.0_dp) then
@@ -718,26 +838,42 @@ contains
         return
       end if
       rpiv = 1.0_dp / f(j, j)
-      do i = j + 1, n                  ! column j of L, scaled; the trailing lower triangle updated
+      do k = j + 1, n                  ! the trailing lower triangle updated by column j
+        fkj = f(k, j)
+        do i = k, n
+          f(i, k) = f(i, k) - f(i, j) * fkj * rpiv
+        end do
+      end do
+      do i = j + 1, n                  ! column j of L
         f(i, j) = f(i, j) * rpiv
       end do
-      do k = j + 1, n
-        fkj = f(k, j) * f(j, j)
-        do i = k, n
-          f(i, k) = f(i, k) - f(i, j) * fkj
-        end do
-        y(k) = y(k) - fkj * y(j) * rpiv
-      end do
-      y(j) = y(j) * rpiv
     end do
-    do j = n, 1, -1                    ! L^T y = D^{-1} z
+  end subroutine ldl_factor
+
+  !> y = F^{-1} y with the factor F = L D L^T of ldl_factor in f(1:n, 1:n).
+  pure subroutine ldl_solve(n, f, y)
+    integer, intent(in) :: n
+    real(dp), intent(in) :: f(:,:)
+    real(dp), intent(inout) :: y(:)
+    integer :: i, j
+    real(dp) :: s
+    do j = 1, n                        ! L z = y
+      s = y(j)
+      do i = j + 1, n
+        y(i) = y(i) - f(i, j) * s
+      end do
+    end do
+    do j = 1, n                        ! D^{-1}
+      y(j) = y(j) / f(j, j)
+    end do
+    do j = n, 1, -1                    ! L^T y = z
       s = y(j)
       do i = j + 1, n
         s = s - f(i, j) * y(i)
       end do
       y(j) = s
     end do
-  end subroutine spd_solve_in_place
+  end subroutine ldl_solve
 
   !> y = a x for a small matrix a (m x n) of a table: explicit loops (the sizes of the
   !> tables' slices are not known to the compiler, and the runtime's matmul costs more
