@@ -379,10 +379,13 @@ contains
   !> field of the parent, evaluated at the fine edge's ends, times the fine edge's normal
   !> (on a fine edge inside a coarse edge the normal trace is the same from both sides);
   !> interior unknowns: matched to the coarse field's value at the child's centroid.
-  pure subroutine hdiv_prolongate(coarse, fine, xc, xf)
+  pure subroutine hdiv_prolongate(coarse, fine, xc, xf, sides_only)
     type(mesh_t), intent(in) :: coarse, fine
     real(dp), intent(in) :: xc(:)
     real(dp), intent(out) :: xf(:)
+    !> only the side unknowns (xf's interior ones left 0), for a caller that recovers the
+    !> interior ones itself (optional, default .false.)
+    logical, intent(in), optional :: sides_only
     type(rt1_geometry_t) :: gc
     real(dp) :: c(rt1_nbasis), psi(2, rt1_nbasis), dpsi(rt1_nbasis), qp(2, 6), nus(2, max_side_ends)
     integer :: tc, k, ip, m, rows(max_side_ends), pts(max_side_ends)
@@ -401,6 +404,9 @@ contains
         xf(rows(k)) = dot_product(nus(:, k), qp(:, pts(k)))
       end do
     end do
+    if (present(sides_only)) then
+      if (sides_only) return
+    end if
     call hdiv_prolongate_interior(coarse, fine, xc, xf)
   end subroutine hdiv_prolongate
 

@@ -136,7 +136,7 @@ contains
   !> its matrix; f, rule, u and load as there), by shape class (module header), and the
   !> triangles at every node, in the sweep's numbering for the nodes in `order` (each node
   !> once).  Out of memory: DS_ERR_MEMORY in st.
-  subroutine hdiv_local_build(mesh, f, rule, order, loc, st, u, load, x0, j0)
+  subroutine hdiv_local_build(mesh, f, rule, order, loc, st, u, load, x0, j0, xp0)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(tri_rule_t), intent(in) :: rule
@@ -148,6 +148,8 @@ contains
     !> side unknowns in the mesh's numbering (optional): j0 = J(x0) (hdiv_local_energy)
     real(dp), intent(in), optional :: x0(:)
     real(dp), intent(out), optional :: j0
+    !> with x0 (optional): x0 in the sweep's numbering (hdiv_local_permute)
+    real(dp), intent(out), optional :: xp0(:)
     type(shape_maps_t) :: maps
     integer, allocatable :: rep(:), cls(:)
     real(dp), allocatable :: xp(:)
@@ -166,10 +168,18 @@ contains
     call patch_types(loc, st)
     if (st%code /= 0) return
     if (present(x0) .and. present(j0)) then
-      allocate (xp(loc%nside), stat=ist)
-      if (alloc_failed(ist, st, 'the RT1 side unknowns', loc%nside, BYTES_REAL)) return
-      call hdiv_local_permute(loc, x0, xp)
-      call triangle_loads(mesh, f, rule, maps, loc, st, u, load, xp, j0)
+      if (present(xp0)) then
+        call hdiv_local_permute(loc, x0, xp0)
+        call triangle_loads(mesh, f, rule, maps, loc, st, u, load, xp0, j0)
+      else
+        allocate (xp(loc%nside), stat=ist)
+        if (alloc_failed(ist, st, 'the RT1 side unknowns', loc%nside, BYTES_REAL)) return
+        call hdiv_local_permute(loc, x0, xp)
+        call triangle_loads(mesh, f, rule, maps, loc, st, u, load, xp, j0)
+      end if
+    else if (present(x0) .and. present(xp0)) then
+      call hdiv_local_permute(loc, x0, xp0)
+      call triangle_loads(mesh, f, rule, maps, loc, st, u, load)
     else
       call triangle_loads(mesh, f, rule, maps, loc, st, u, load)
     end if
@@ -484,7 +494,7 @@ contains
     type(hdiv_local_t), intent(inout) :: loc
     integer, intent(in) :: cls(:)      !! (ntri) the shape class of each triangle of the mesh
     type(status_t), intent(inout) :: st
-    integer :: it, t, tn, kv, l, g, next_t, next_i, ist
+    integer :: it, t, tn, kv, l, g, next_t, next_i, ist, lp(4)
     real(dp) :: sgn(rt1_nside)
     allocate (loc%tperm(mesh%ntri), loc%tri_of(mesh%ntri), loc%perm(loc%nside), loc%dofs(rt1_nside, mesh%ntri), &
               loc%code(mesh%ntri), stat=ist)
@@ -505,9 +515,9 @@ contains
                            + merge(4, 0, sgn(6) < 0.0_dp)
       end if
       tn = loc%tperm(t)
-      do l = 1, rt1_nside
-        if (.not. at_corner(l, kv)) cycle
-        g = loc%dofs(l, tn)
+      lp = corner_dofs(kv)
+      do l = 1, 4
+        g = loc%dofs(lp(l), tn)
         if (loc%perm(g) /= 0) cycle
         next_i = next_i + 1
         loc%perm(g) = next_i
@@ -518,13 +528,6 @@ contains
       loc%dofs(:, tn) = loc%perm(loc%dofs(:, tn))
     end do
   end subroutine sweep_numbering
-
-  !> Local side unknown l (of side (l+1)/2) belongs to the patch of local vertex kv: its side
-  !> is kv (a_kv a_kv+1) or kv - 1.
-  pure logical function at_corner(l, kv)
-    integer, intent(in) :: l, kv
-    at_corner = (l + 1) / 2 == kv .or. (l + 1) / 2 == mod(kv + 1, 3) + 1
-  end function at_corner
 
   !> xp = xs in the sweep's numbering of the side unknowns (xp(perm(i)) = xs(i)).
   pure subroutine hdiv_local_permute(loc, xs, xp)

@@ -55,7 +55,7 @@ module dualsig_problem_dual_hdiv
   use dualsig_patch_schwarz, only: mg_hierarchy_t, mg_add_level, mg_free, mg_hold, pcg_quadratic, pcg_result_t, mg_relax_bounded
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   use dualsig_load_data, only: load_data_t
-  use dualsig_dual_hdiv_smoother, only: hdiv_local_t, hdiv_local_build, hdiv_local_permute, hdiv_local_sweep, &
+  use dualsig_dual_hdiv_smoother, only: hdiv_local_t, hdiv_local_build, hdiv_local_sweep, &
                                         hdiv_local_recover
   implicit none
   private
@@ -357,14 +357,14 @@ contains
     n = 2 * mesh%nedge
     allocate (xs(n), bounded(n), x(hdiv_nfield(mesh)), stat=ist)
     if (alloc_failed(ist, st, 'the RT1 dual vectors', n + hdiv_nfield(mesh), BYTES_REAL)) return
-    ! the start: the previous level's field (exact, and feasible up to rounding)
-    call hdiv_prolongate(nest%coarse, mesh, nest%q, x)
+    ! the start: the previous level's field (exact, and feasible up to rounding); its side
+    ! unknowns only (the interior ones are recovered from the swept side unknowns)
+    call hdiv_prolongate(nest%coarse, mesh, nest%q, x, sides_only=.true.)
     where (kind == BOUND_LOWER) x(1:n) = max(x(1:n), 0.0_dp)
-    call hdiv_local_build(mesh, f, rule, order, loc, st, u_primal, load, x0=x(1:n), j0=j_now)
+    call hdiv_local_build(mesh, f, rule, order, loc, st, u_primal, load, x0=x(1:n), j0=j_now, xp0=xs)
     if (.not. is_ok(st)) return
     bounded(loc%perm) = kind == BOUND_LOWER
     res%nconstraints = count(bounded)
-    call hdiv_local_permute(loc, x(1:n), xs)
     j_floor = nested_floor_of(loc%shift, loc%data_sq, loc%data_osc_sq)
     dj = 0.0_dp
     left = huge(1.0_dp)
