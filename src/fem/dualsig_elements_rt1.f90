@@ -160,8 +160,11 @@ contains
     type(tri_rule_t), intent(in) :: rule
     type(rt1_reference_t), intent(in) :: ref
     real(dp), intent(out) :: ae(rt1_nbasis, rt1_nbasis), be(rt1_nbasis)
+    real(dp) :: bmap(rt1_nbasis, 3), fb(3)
     ae = rt1_gram(g, ref)
-    be = matmul(rt1_load_map(g, ref), rt1_load_moments(rule, fq))
+    bmap = rt1_load_map(g, ref)
+    fb = rt1_load_moments(rule, fq)
+    be = matmul(bmap, fb)
   end subroutine rt1_element
 
   !> The Gram matrix ae of ||q||^2 + ||div q||^2 of triangle g in closed form (module
@@ -220,7 +223,11 @@ contains
     type(tri_rule_t), intent(in) :: rule
     real(dp), intent(in) :: fq(:)
     real(dp) :: fb(3)
-    fb = matmul(rule%bary(:, 1:rule%n), rule%w(1:rule%n) * fq(1:rule%n))
+    integer :: q
+    fb = 0.0_dp
+    do q = 1, rule%n
+      fb = fb + (rule%w(q) * fq(q)) * rule%bary(:, q)
+    end do
   end function rt1_load_moments
 
   !> Static condensation of the two interior unknowns x_I (free): with the blocks of ae
