@@ -53,20 +53,14 @@ contains
     integer, intent(in) :: item
     integer, intent(out) :: c
     type(status_t), intent(inout) :: st
-    integer :: s, mask
+    integer :: s
     c = 0
     if (idx%n == size(idx%first)) then
       call key_index_grow(idx, st)
       if (st%code /= 0) return
     end if
-    mask = size(idx%slot) - 1
-    s = int(iand(key_hash(key), int(mask, i8)))
-    do
-      c = idx%slot(s)
-      if (c == 0) exit
-      if (all(idx%key(:, c) == key)) return
-      s = iand(s + 1, mask)
-    end do
+    call probe(idx, key, c, s)
+    if (c /= 0) return
     idx%n = idx%n + 1
     c = idx%n
     idx%key(:, c) = key
@@ -78,7 +72,17 @@ contains
   pure integer function key_index_find(idx, key) result(c)
     type(key_index_t), intent(in) :: idx
     integer(i8), intent(in) :: key(:)
-    integer :: s, mask
+    integer :: s
+    call probe(idx, key, c, s)
+  end function key_index_find
+
+  !> Linear probing from key's hash: the class c of an equal key, or c = 0 and the empty
+  !> slot s where it would go.
+  pure subroutine probe(idx, key, c, s)
+    type(key_index_t), intent(in) :: idx
+    integer(i8), intent(in) :: key(:)
+    integer, intent(out) :: c, s
+    integer :: mask
     mask = size(idx%slot) - 1
     s = int(iand(key_hash(key), int(mask, i8)))
     do
@@ -87,7 +91,7 @@ contains
       if (all(idx%key(:, c) == key)) return
       s = iand(s + 1, mask)
     end do
-  end function key_index_find
+  end subroutine probe
 
   !> A hash of a key: each entry folded in after rotating what came before, then the high
   !> bits folded onto the low ones (the table takes the low bits).
