@@ -1,11 +1,12 @@
 !> A matrix-free solver for the condensed RT1 dual problem of P1 (dualsig_problem_dual_hdiv)
 !> from a close start: projected multiplicative Schwarz sweeps over the vertex patches (all
 !> side unknowns of the edges at a vertex, the patches of the V-cycle's smoother in
-!> dualsig_patch_schwarz), each patch's block and residual gathered from the condensed
-!> systems of the triangles at the vertex (hdiv_condensed_element, kept per triangle),
-!> never from an assembled matrix.  Every row of a patch unknown gets its entries from the
-!> triangles at its edge, and both lie at the vertex, so the patch's block and residual are
-!> exact.
+!> dualsig_patch_schwarz), each patch's residual (and block) gathered from the condensed
+!> systems of the triangles at the vertex (those of hdiv_condensed_element, kept per shape
+!> class, below), never from an assembled matrix.  Every row of a patch unknown gets its
+!> entries from the triangles at its edge, and both lie at the vertex, so the patch's block
+!> and residual are exact.  Interior patches alike (patch_types) share one factored block;
+!> the others have theirs formed and eliminated in the sweep.
 !>
 !> The problem is that of dualsig_problem_dual_hdiv: minimise J(x) = 1/2 x^T S x - c^T x
 !> (S = sum_T S_T, c = sum_T c_T, the interior unknowns eliminated) subject to x_i >= 0 on
@@ -99,10 +100,9 @@ module dualsig_dual_hdiv_smoother
     integer, allocatable :: node_ptr(:), node_tri(:), node_corner(:)
     logical, allocatable :: node_boundary(:)   !! (npos) the node lies on the boundary
     !> the types of the vertex patches (patch_types): node position p's, 0 for none; the
-    !> unknowns and the LDL^T factor (ldl_factor) of the sign-normalised block of each type
+    !> LDL^T factor (ldl_factor) of the sign-normalised block of each type
     integer :: ntype = 0
     integer, allocatable :: node_type(:)   !! (npos)
-    integer, allocatable :: type_m(:)      !! (ntype)
     real(dp), allocatable :: type_fac(:,:,:)   !! (max_patch, max_patch, ntype)
     real(dp) :: shift = 0.0_dp             !! as hdiv_system_t%shift
     real(dp) :: data_sq = 0.0_dp           !! as hdiv_system_t%data_sq
@@ -264,7 +264,7 @@ contains
     end do
   end subroutine canonical_node_order
 
-  !> The types of the vertex patches of the interior nodes (loc%node_type, type_m,
+  !> The types of the vertex patches of the interior nodes (loc%node_type,
   !> type_fac): two patches are of one type when their triangles, in the canonical order,
   !> have the same shape classes and corners and place their unknowns at the same patch
   !> positions.  Then their blocks are sigma_i sigma_j A^_ij with the same A^ (sigma_i: the
@@ -289,7 +289,7 @@ contains
     max_types = max(min_types, npos / nodes_per_type)
     allocate (loc%node_type(npos), source=0, stat=ist)
     if (alloc_failed(ist, st, 'the types of the vertex patches', npos, BYTES_INT)) return
-    allocate (key(1 + 6 * maxdeg), pos(loc%nside), list(mp), a(mp, mp), sigma(mp), loc%type_m(max_types), &
+    allocate (key(1 + 6 * maxdeg), pos(loc%nside), list(mp), a(mp, mp), sigma(mp), &
               ok(max_types), fac(mp, mp, min_types), stat=ist)
     if (alloc_failed(ist, st, 'the types of the vertex patches', loc%nside + 2 * max_types + mp * mp * min_types, &
                      BYTES_REAL)) return
@@ -315,7 +315,6 @@ contains
         a(1:m, 1:m) = a(1:m, 1:m) * spread(sigma(1:m), 1, m) * spread(sigma(1:m), 2, m)
         fac(1:m, 1:m, c) = a(1:m, 1:m)
         call ldl_factor(m, fac(:, :, c), ierr)
-        loc%type_m(c) = m
         ok(c) = ierr == 0
       end if
       if (c > 0) then
@@ -324,7 +323,6 @@ contains
       pos(list(1:m)) = 0
     end do
     loc%ntype = idx%n
-    loc%type_m = loc%type_m(1:idx%n)
     loc%type_fac = fac(:, :, 1:idx%n)
   end subroutine patch_types
 
