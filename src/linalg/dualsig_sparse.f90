@@ -12,7 +12,7 @@ module dualsig_sparse
 
   public :: csr_t, csr_pattern_from_edges, csr_pattern_from_cliques, csr_add, csr_add_block, &
             csr_get, csr_matvec, csr_is_symmetric, csr_nnz, csr_set_row_pattern, sort_small_ints, csr_move, &
-            csr_quadratic_change
+            csr_quadratic_change, csr_gauss_seidel
   public :: rect_t, rect_from_triplets, rect_matvec, rect_matvec_t, sort_row_by_column, rect_move
 
   type :: csr_t
@@ -302,6 +302,41 @@ contains
       end if
     end do
   end function csr_get
+
+  !> One Gauss-Seidel sweep for A x = b, forward (rows 1..n) or backward, rows with a
+  !> non-positive diagonal (no unknown left, e.g. after truncation) skipped.  decrease: the
+  !> decrease of J(x) = x^T A x / 2 - b^T x the sweep made (A symmetric): updating x_i by
+  !> s / a_ii, s = (b - A x)_i, lowers J by s^2 / (2 a_ii).
+  pure subroutine csr_gauss_seidel(a, b, x, forward, decrease)
+    type(csr_t), intent(in) :: a
+    real(dp), intent(in) :: b(:)
+    real(dp), intent(inout) :: x(:)
+    logical, intent(in) :: forward
+    real(dp), intent(out), optional :: decrease
+    integer :: i, p, i0, i1, di
+    real(dp) :: s, d, dj
+    if (forward) then
+      i0 = 1
+      i1 = a%n
+      di = 1
+    else
+      i0 = a%n
+      i1 = 1
+      di = -1
+    end if
+    dj = 0.0_dp
+    do i = i0, i1, di
+      d = a%val(a%diag(i))
+      if (d <= 0.0_dp) cycle
+      s = b(i)
+      do p = a%rowptr(i), a%rowptr(i + 1) - 1
+        s = s - a%val(p) * x(a%col(p))
+      end do
+      x(i) = x(i) + s / d
+      if (present(decrease)) dj = dj + s * s / d
+    end do
+    if (present(decrease)) decrease = 0.5_dp * dj
+  end subroutine csr_gauss_seidel
 
   !> y = A x.
   pure subroutine csr_matvec(a, x, y)

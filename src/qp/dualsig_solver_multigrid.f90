@@ -47,7 +47,7 @@
 !> runs, a copy of the untruncated coarse operators and loads (about 35 bytes more).
 module dualsig_solver_multigrid
   use dualsig_kinds, only: dp, i8
-  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_pattern_from_edges, rect_matvec, rect_matvec_t, &
+  use dualsig_sparse, only: csr_t, rect_t, csr_matvec, csr_gauss_seidel, csr_pattern_from_edges, rect_matvec, rect_matvec_t, &
                             csr_set_row_pattern, csr_move, rect_move
   use dualsig_amg_aggregation, only: amg_prolongation, amg_transpose, amg_galerkin_product, amg_galerkin_values, &
                                      amg_sweep_order, &
@@ -716,14 +716,14 @@ contains
     n = settings%sweeps
     z = 0.0_dp
     do k = 1, n
-      call gs_linear(a, r, z, mod(k, 2) == 1)
+      call csr_gauss_seidel(a, r, z, mod(k, 2) == 1)
     end do
     call csr_matvec(a, z, w)
     w = r - w
     call coarse_correction(h, frozen, w, w2, pcg_coarse_sweeps(settings%coarse_sweeps))
     z = z + w2
     do k = 1, n
-      call gs_linear(a, r, z, mod(n - k + 1, 2) /= 1)
+      call csr_gauss_seidel(a, r, z, mod(n - k + 1, 2) /= 1)
     end do
   end subroutine pcg_vcycle
 
@@ -1322,13 +1322,13 @@ contains
           g%x = 0.0_dp
         end if
         do k = 1, coarse_sweeps_fallback
-          call gs_linear(g%a, g%b, g%x, .true.)
-          call gs_linear(g%a, g%b, g%x, .false.)
+          call csr_gauss_seidel(g%a, g%b, g%x, .true.)
+          call csr_gauss_seidel(g%a, g%b, g%x, .false.)
         end do
         return
       end if
       do k = 1, nu
-        call gs_linear(g%a, g%b, g%x, mod(k, 2) == 1)
+        call csr_gauss_seidel(g%a, g%b, g%x, mod(k, 2) == 1)
       end do
       call csr_matvec(g%a, g%x, g%r)
       g%r = g%b - g%r
@@ -1336,39 +1336,10 @@ contains
       call vcycle(h, l - 1, nu)
       call prolong_add(h%transfer(l), h%grid(l - 1)%x, g%x)
       do k = 1, nu
-        call gs_linear(g%a, g%b, g%x, mod(k, 2) == 0)
+        call csr_gauss_seidel(g%a, g%b, g%x, mod(k, 2) == 0)
       end do
     end associate
   end subroutine vcycle
-
-  !> One Gauss-Seidel sweep for A x = b (forward or backward), rows with a zero diagonal
-  !> (no unknown left after truncation) skipped.
-  pure subroutine gs_linear(a, b, x, forward)
-    type(csr_t), intent(in) :: a
-    real(dp), intent(in) :: b(:)
-    real(dp), intent(inout) :: x(:)
-    logical, intent(in) :: forward
-    integer :: i, p, i0, i1, di
-    real(dp) :: s, d
-    if (forward) then
-      i0 = 1
-      i1 = a%n
-      di = 1
-    else
-      i0 = a%n
-      i1 = 1
-      di = -1
-    end if
-    do i = i0, i1, di
-      d = a%val(a%diag(i))
-      if (d <= 0.0_dp) cycle
-      s = b(i)
-      do p = a%rowptr(i), a%rowptr(i + 1) - 1
-        s = s - a%val(p) * x(a%col(p))
-      end do
-      x(i) = x(i) + s / d
-    end do
-  end subroutine gs_linear
 
   !> bc = P^T rf.
   pure subroutine restrict(t, rf, bc)
