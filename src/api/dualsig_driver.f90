@@ -1004,9 +1004,9 @@ contains
           ', lambda_max(B A^-1 B^T) ~ ', d%lambda_max, ', residual ', d%residual
         if (res%dual_method == 'augmented') write (unit, '(a,es10.3,a,a)') '    penalty r = ', d%penalty, &
           ', ordering ', trim(d%ordering)
-        if (res%dual_method == 'multigrid') write (unit, '(a,i0,a,i0,a)') '    stream function: ', &
-          d%inner_iterations, ' V-cycles in ', d%iterations, ' active-set steps (' // trim(d%inner) // &
-          trim(stream_grids(d%inner)) // ')'
+        if (res%dual_method == 'multigrid') write (unit, '(a,i0,a,i0,a,i0,a)') '    stream function: ', &
+          d%inner_iterations, ' V-cycles and ', d%sweeps, ' Gauss-Seidel sweeps in ', d%iterations, &
+          ' active-set steps (' // trim(d%inner) // trim(stream_grids(d%inner)) // ')'
         if (d%est_gap > 0.0_dp) write (unit, '(a,es9.2,a)') '    stopped at the algebraic share: est + ', &
           d%est_gap, ' (predicted part of est the solve left)'
       end associate
@@ -1014,7 +1014,8 @@ contains
   end subroutine report_level
 
   !> The grids of the P2 dual's stream-function multigrid, for the report: by the inner
-  !> solver name of dualsig_problem_dual_p2 ('multigrid': the refinements' grids).
+  !> solver name of dualsig_problem_dual_p2 ('multigrid': the refinements' grids;
+  !> 'gauss_seidel': the sweeps of the last level reached the share without any).
   pure function stream_grids(inner) result(text)
     character(len=*), intent(in) :: inner
     character(len=:), allocatable :: text
@@ -1023,6 +1024,8 @@ contains
       text = ', geometric grids'
     case ('multigrid_p1amg')
       text = ', the P1 grid and aggregation below it'
+    case ('gauss_seidel')
+      text = ', no grids: sweeps from the previous level''s psi'
     case default
       text = ', aggregation'
     end select

@@ -40,8 +40,8 @@
 module dualsig_dual_p2_stream
   use dualsig_kinds, only: dp, i8
   use dualsig_mesh, only: mesh_t
-  use dualsig_sparse, only: csr_t, rect_t, rect_matvec, rect_matvec_t, rect_from_triplets, csr_pattern_from_cliques, &
-                            csr_add_block
+  use dualsig_sparse, only: csr_t, csr_gauss_seidel, rect_t, rect_matvec, rect_matvec_t, rect_from_triplets, &
+                            csr_pattern_from_cliques, csr_add_block
   use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_product
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, multigrid_solve, mg_clear, &
                                       mg_build_algebraic, mg_extend_algebraic, mg_finest_size, &
@@ -91,6 +91,13 @@ module dualsig_dual_p2_stream
   !> the strong connections of a merged Gamma_a run, doc/performance.md); the fallback
   !> guards against a stall not seen yet
   integer, parameter :: p1_coarse_max_vcycles = 40
+  !> smooth_first stops when the predicted part of J left is at most this fraction of
+  !> energy_tol: the prediction (a geometric series of the sweeps' decreases) misses the
+  !> smooth error the sweeps hardly reduce.  Measured at level 9 of p2_contact (share
+  !> 10^-3): 6 sweeps, the stop at the full tolerance, left est 1.45 10^-3 above the
+  !> multigrid solve's (effectivity 1.000798 against 1.000074); 8 sweeps, the stop at this
+  !> fraction, 0.77 10^-3 (1.000459), within the share
+  real(dp), parameter :: sweep_tol_fraction = 0.25_dp
   !> est as a function of psi is est_excess J(psi) + terms without psi: with lambda = lambda^f
   !> + curl psi, ||grad u~ - lambda||^2 + 2 int_{Gamma_a} u~ lambda.nu = ||grad u~ - lambda^f||^2
   !> + ||curl psi||^2 + 2 (lambda^f, curl psi) by Green's formula (div curl psi = 0, u~ = 0 on
@@ -116,11 +123,17 @@ module dualsig_dual_p2_stream
     !> for its energy stop (2 iterations to the share 1e-3 at level 9 of p2_contact, where the
     !> V-cycles took 5 to tol).
     logical :: krylov = .true.
+    !> > 0, with est_tol > 0 and a start psi (the last level of a uniform run, from the
+    !> previous level's psi): at most this many Gauss-Seidel sweeps on R^T K R before any
+    !> multigrid; a step needs no hierarchy when they reach est_tol (smooth_first)
+    integer :: smooth_sweeps = 0
   end type stream_settings_t
 
   type :: stream_result_t
     integer :: steps = 0             !! active-set steps (linear solves)
     integer :: vcycles = 0           !! multigrid iterations over all steps
+    integer :: sweeps = 0            !! Gauss-Seidel sweeps of smooth_first over all steps
+    logical :: hierarchy = .false.   !! a step used multigrid (else the sweeps reached est_tol in all)
     integer :: unknowns = 0          !! P2 values of psi
     integer :: nactive = 0           !! active Gamma_a rows at the end
     integer :: nrows = 0             !! Gamma_a rows
@@ -170,7 +183,7 @@ contains
     integer, allocatable, intent(inout), optional :: set_keep(:,:)
     type(stream_gamma_rows_t) :: rows
     real(dp), allocatable :: f(:), psi(:), r(:), mu(:,:)
-    logical, allocatable :: active(:,:), next(:,:)
+    logical, allocatable :: active(:,:), next(:,:), at_rows(:)
     integer :: n2, step, ist
     logical :: last_ok, try_p1
 
@@ -212,10 +225,10 @@ contains
       call solve_with_active(mesh, f, rows, active, settings, psi, res, last_ok, try_p1, st, mg)
       if (.not. is_ok(st)) return
       call stream_fluxes(mesh, psi, x)
-      allocate (r(n2), stat=ist)                 ! not held during the solves (their memory is the peak)
-      if (alloc_failed(ist, st, 'the stream residual', int(n2, i8), BYTES_REAL)) return
-      call stream_apply_stiffness(mesh, psi, r)
-      r = r - f
+      allocate (r(n2), at_rows(n2), stat=ist)   ! not held during the solves (their memory is the peak)
+      if (alloc_failed(ist, st, 'the stream residual', int(n2, i8), BYTES_REAL + 1)) return
+      call gamma_a_residual(mesh, rows, psi, f, at_rows, r)
+      deallocate (at_rows)
       call mu_of_chains(rows, active, r, mu)
       deallocate (r)
       if (settings%est_tol > 0.0_dp) then
@@ -281,6 +294,14 @@ contains
     kind = BOUND_FREE
     bnd = 0.0_dp
     kz%val(kz%diag) = kz%val(kz%diag) * (1.0_dp + constant_shift)
+    if (settings%smooth_sweeps > 0 .and. settings%est_tol > 0.0_dp .and. any(z /= 0.0_dp)) then
+      call smooth_first(kz, fz, settings%smooth_sweeps, settings%est_tol / est_excess, z, res, last_ok)
+      if (last_ok) then
+        call rect_matvec(rmat, z, psi)
+        return
+      end if
+    end if
+    res%hierarchy = .true.
     res%geometric = .false.
     if (present(mg)) then
       if (mg%nlevel >= 2 .and. mg_finest_size(mg) == mesh%nnode) then
@@ -334,6 +355,52 @@ contains
     if (mr%energy_stop) res%est_gap = est_excess * mr%energy_gap
     call rect_matvec(rmat, z, psi)
   end subroutine solve_with_active
+
+  !> Gauss-Seidel sweeps (forward, backward, ...) on kz z = fz from a close start (the
+  !> previous level's psi), without a hierarchy: they remove the error's oscillating part,
+  !> which is most of what a prolongated start leaves (its smooth part is of higher order,
+  !> theory.md, "The last level of a uniform run").  done: the part of J the sweeps could
+  !> still remove, predicted from the last two sweeps' decreases dj as a geometric series
+  !> (dj q / (1 - q), q their ratio; after the first sweep dj itself), is at most
+  !> sweep_tol_fraction energy_tol (J's units), within max_sweeps; otherwise (also as soon as
+  !> the remaining sweeps would not get there at the ratio measured, or a sweep stops
+  !> contracting) the caller goes on with multigrid from the swept z (the sweeps are not
+  !> lost).  res%est_gap: the prediction.
+  subroutine smooth_first(kz, fz, max_sweeps, energy_tol, z, res, done)
+    type(csr_t), intent(in) :: kz
+    real(dp), intent(in) :: fz(:)
+    integer, intent(in) :: max_sweeps
+    real(dp), intent(in) :: energy_tol
+    real(dp), intent(inout) :: z(:)
+    type(stream_result_t), intent(inout) :: res
+    logical, intent(out) :: done
+    real(dp) :: dj, dj_prev, left, q, target
+    integer :: k
+    done = .false.
+    target = sweep_tol_fraction * energy_tol
+    dj = 0.0_dp
+    do k = 1, max_sweeps
+      dj_prev = dj
+      call csr_gauss_seidel(kz, fz, z, mod(k, 2) == 1, dj)
+      res%sweeps = res%sweeps + 1
+      q = 0.0_dp
+      if (k == 1 .or. .not. dj > 0.0_dp) then
+        left = dj
+      else if (dj < dj_prev) then
+        q = dj / dj_prev
+        left = dj * q / (1.0_dp - q)
+      else
+        left = huge(1.0_dp)                 ! no contraction measured
+        exit
+      end if
+      done = left <= target
+      if (done) exit
+      ! the sweeps still allowed would not get there at the rate measured: multigrid now
+      if (k >= 2 .and. left * q**(max_sweeps - k) > target) exit
+    end do
+    res%est_gap = 0.0_dp
+    if (done) res%est_gap = est_excess * left
+  end subroutine smooth_first
 
   !> The hierarchy for a mesh without refinements (level 1, Gmsh meshes, adaptive steps):
   !> z -> P1 of the mesh by pz, as on the geometric grids, and below the P1 grid smoothed
@@ -692,6 +759,32 @@ contains
       f(n2) = f(n2) - x1 + 3.0_dp * x2
     end do
   end subroutine stream_flux_load
+
+  !> r = K psi - F at the ends and midpoints of the Gamma_a rows, what mu_of_chains reads
+  !> (0 elsewhere), from the triangles that hold one of them: the element products of those
+  !> only, O(sqrt N) of them.  at: work array (n2), on return .true. at those nodes.
+  pure subroutine gamma_a_residual(mesh, rows, psi, f, at, r)
+    type(mesh_t), intent(in) :: mesh
+    type(stream_gamma_rows_t), intent(in) :: rows
+    real(dp), intent(in) :: psi(:), f(:)
+    logical, intent(out) :: at(:)
+    real(dp), intent(out) :: r(:)
+    real(dp) :: ke(6, 6)
+    integer :: t, cl(6)
+    at = .false.
+    at(rows%a) = .true.
+    at(rows%b) = .true.
+    at(rows%m) = .true.
+    r = 0.0_dp
+    do t = 1, mesh%ntri
+      cl = p2_dofs(mesh, t)
+      if (.not. any(at(cl(1:3)))) cycle        ! a triangle with a node of the rows has a vertex there
+      call p2_element_stiffness(mesh%xy(:, mesh%tri(:, t)), ke)
+      r(cl) = r(cl) + matmul(ke, psi(cl))
+    end do
+    where (at) r = r - f
+    where (.not. at) r = 0.0_dp
+  end subroutine gamma_a_residual
 
   !> K: the P2 stiffness matrix (int grad phi_i . grad phi_j), vertices first, then the
   !> edge midpoints.  The solver assembles R^T K R directly (stream_reduced_stiffness) and applies K

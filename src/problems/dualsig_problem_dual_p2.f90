@@ -81,6 +81,9 @@ module dualsig_problem_dual_p2
     !> multigrid: > 0 stops the stream function's solves when the part of est they could still
     !> remove is predicted below this (est's units; the adaptive loop's algebraic share)
     real(dp) :: est_tol = 0.0_dp
+    !> multigrid, with est_tol and a start psi (the last level of a uniform run): at most this
+    !> many Gauss-Seidel sweeps before any multigrid (dualsig_dual_p2_stream, smooth_first)
+    integer :: smooth_sweeps = 0
   end type dual_p2_settings_t
 
   type :: dual_p2_result_t
@@ -88,6 +91,7 @@ module dualsig_problem_dual_p2
     integer :: factorisations = 0      !! augmented: CHOLMOD (re)factorisations
     character(len=16) :: inner = ''    !! augmented: the inner solver used ('schur' or 'active_set')
     integer :: inner_iterations = 0    !! augmented: dense pivoting ('schur') or active-set iterations in all
+    integer :: sweeps = 0              !! multigrid: Gauss-Seidel sweeps before the V-cycles (smooth_sweeps)
     real(dp) :: residual = 0.0_dp      !! Uzawa residual
     real(dp) :: defect = 0.0_dp        !! relative divergence defect of the returned field
     real(dp) :: defect_solver = 0.0_dp !! the same of the solver's field, before equilibrate_divergence
@@ -342,6 +346,7 @@ contains
     call equilibrium_to_global(map, be, bx)
     deallocate (be, d, map%dof, map%sgn)
     sset%est_tol = settings%est_tol
+    sset%smooth_sweeps = settings%smooth_sweeps
     call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal, psi, active_set)
     if (.not. is_ok(st)) return
     deallocate (bx)
@@ -355,6 +360,8 @@ contains
     res%iterations = sres%steps
     res%inner = 'multigrid'
     if (.not. sres%geometric) res%inner = trim(merge('multigrid_p1amg', 'multigrid_amg  ', sres%p1_coarse))
+    if (.not. sres%hierarchy) res%inner = 'gauss_seidel'
+    res%sweeps = sres%sweeps
     res%inner_iterations = sres%vcycles
     res%converged = sres%converged
     res%nactive = sres%nactive
