@@ -18,19 +18,13 @@
 !> never increases, the field stays feasible after every step, and any field it returns
 !> gives guaranteed bounds.
 !>
-!> Shape classes: the condensed matrix of a triangle, its condensation and the maps from the
-!> load to its right-hand side depend on the triangle only through the Gram matrix J^T J of
-!> its edges a_2 - a_1, a_3 - a_1 (rt1_gram, rt1_load_map; the side lengths, det J and the
-!> P1 stiffness follow from it).  Congruent triangles with the same vertex order share
-!> them, and a uniform refinement makes no new shapes: the children of a red refinement
-!> are the parent halved, the middle one with its vertices rotated, so the last level of a
-!> uniform run from a mesh of n0 triangles has at most 3 n0 classes, whatever its size.
-!> Triangles whose J^T J agree to shape_bits bits relative to their size (shape_key) share
-!> a class; the matrices are those of the class's first triangle.  This changes only
-!> which field the sweeps converge to, by a relative 2^-shape_bits at most (the coordinates
-!> of a fine mesh are rounded at 2^-52 of the domain's size, so its children differ at
-!> that level anyway): the field is feasible whatever the matrices, and the bounds are
-!> computed from it on the mesh itself (dualsig_estimate_dual_hdiv).
+!> Shape classes (dualsig_mesh_shapes): the condensed matrix of a triangle, its condensation
+!> and the maps from the load to its right-hand side depend on the triangle only through the
+!> Gram matrix J^T J of its edges (rt1_gram, rt1_load_map), so the triangles of one class
+!> share those of the class's first triangle.  This changes only which field the sweeps
+!> converge to, by a relative 2^-shape_bits at most: the field is feasible whatever the
+!> matrices, and the bounds are computed from it on the mesh itself
+!> (dualsig_estimate_dual_hdiv).
 !>
 !> Memory: per triangle its side unknowns, shape class and signs, its right-hand side and
 !> the load part of its condensation (92 bytes); per shape class its condensed matrix and
@@ -52,6 +46,7 @@ module dualsig_dual_hdiv_smoother
   use dualsig_status, only: status_t
   use dualsig_alloc, only: alloc_failed, BYTES_INT, BYTES_REAL
   use dualsig_key_index, only: key_index_t, key_index_init, key_index_add, key_index_find
+  use dualsig_mesh_shapes, only: shape_classes
   implicit none
   private
 
@@ -62,9 +57,6 @@ module dualsig_dual_hdiv_smoother
   !> (1 + delta_ij) / 12.
   real(dp), parameter :: p1_mass_ref(3, 3) = reshape([2.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 2.0_dp, 1.0_dp, &
                                                       1.0_dp, 1.0_dp, 2.0_dp], [3, 3]) / 12.0_dp
-  !> Bits to which the edge Gram matrices of two triangles agree, relative to their size,
-  !> when they share a shape class (module header; shape_key).
-  integer, parameter :: shape_bits = 38
   !> The signs of the 6 side unknowns of a triangle (local = sign * global) for each mask
   !> of code (hdiv_local_t): bit k-1 set when those of side k are -1.
   real(dp), parameter :: mask_sign(rt1_nside, 0:7) = reshape([ &
@@ -200,44 +192,6 @@ contains
       fv(j) = load%mean(t) + dot_product(load%slope(:, t), xy(:, j) - centroid)
     end do
   end function load_vertex_values
-
-  !> The shape class cls(t) of every triangle t (module header), the first triangle of each
-  !> class (rep) and their number, nshape.
-  subroutine shape_classes(mesh, cls, rep, nshape, st)
-    type(mesh_t), intent(in) :: mesh
-    integer, allocatable, intent(out) :: cls(:), rep(:)
-    integer, intent(out) :: nshape
-    type(status_t), intent(inout) :: st
-    type(key_index_t) :: idx
-    integer :: t, ist
-    nshape = 0
-    allocate (cls(mesh%ntri), stat=ist)
-    if (alloc_failed(ist, st, 'the shape classes of the triangles', mesh%ntri, BYTES_INT)) return
-    call key_index_init(idx, 4, st)
-    if (st%code /= 0) return
-    do t = 1, mesh%ntri
-      call key_index_add(idx, shape_key(mesh%xy(:, mesh%tri(:, t))), t, cls(t), st)
-      if (st%code /= 0) return
-    end do
-    nshape = idx%n
-    rep = idx%first(1:idx%n)
-  end subroutine shape_classes
-
-  !> The key of the shape class of the triangle xy (its vertices in the mesh's order): the
-  !> entries of J^T J = [e1.e1, e1.e2, e2.e2] (e1 = a_2 - a_1, e2 = a_3 - a_1) rounded to
-  !> shape_bits bits below their scale 2^e >= e1.e1 + e2.e2, and e.
-  pure function shape_key(xy) result(key)
-    real(dp), intent(in) :: xy(2, 3)
-    integer(i8) :: key(4)
-    real(dp) :: e1(2), e2(2), c(3)
-    integer :: e
-    e1 = xy(:, 2) - xy(:, 1)
-    e2 = xy(:, 3) - xy(:, 1)
-    c = [dot_product(e1, e1), dot_product(e1, e2), dot_product(e2, e2)]
-    e = exponent(c(1) + c(3))
-    key(1:3) = nint(scale(c, shape_bits - e), kind=i8)
-    key(4) = int(e, i8)
-  end function shape_key
 
   !> The triangles at every node in a canonical order: by shape class, then by the node's
   !> corner in them (stable), so that vertex patches alike in shape list their unknowns

@@ -40,7 +40,9 @@
 module dualsig_dual_p2_stream
   use dualsig_kinds, only: dp, i8
   use dualsig_mesh, only: mesh_t
-  use dualsig_sparse, only: csr_t, csr_gauss_seidel, rect_t, rect_matvec, rect_matvec_t, rect_from_triplets, &
+  use dualsig_elements_p2, only: p2_dofs, p2_element_stiffness
+  use dualsig_dual_p2_sweeps, only: p2_sweeper_t, p2_sweeper_build, p2_sweep, p2_sweeper_fits
+  use dualsig_sparse, only: csr_t, rect_t, rect_matvec, rect_matvec_t, rect_from_triplets, &
                             csr_pattern_from_cliques, csr_add_block
   use dualsig_amg_aggregation, only: amg_transpose, amg_galerkin_product
   use dualsig_solver_multigrid, only: mg_hierarchy_t, mg_settings_t, mg_result_t, multigrid_solve, mg_clear, &
@@ -285,22 +287,25 @@ contains
     call stream_reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
     if (.not. is_ok(st)) return
     nz = rmat%n
-    call stream_reduced_stiffness(mesh, rmat, kz, st)
-    if (.not. is_ok(st)) return
-    allocate (fz(nz), z(nz), bnd(nz), kind(nz), stat=ist)
-    if (alloc_failed(ist, st, 'the reduced stream function', 4_i8 * nz, BYTES_REAL)) return
+    allocate (fz(nz), z(nz), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced stream function', 2_i8 * nz, BYTES_REAL)) return
     call rect_matvec_t(rmat, f, fz)
     z = psi(node_of_z)
+    if (settings%smooth_sweeps > 0 .and. settings%est_tol > 0.0_dp .and. any(z /= 0.0_dp) .and. &
+        p2_sweeper_fits(mesh)) then
+      call rect_matvec(rmat, z, psi)        ! the start in the range of R
+      call smooth_first(mesh, rmat, node_of_z, fz, settings%smooth_sweeps, settings%est_tol / est_excess, psi, &
+                        res, last_ok, st)
+      if (.not. is_ok(st) .or. last_ok) return
+      z = psi(node_of_z)                    ! the V-cycles go on from the swept psi
+    end if
+    call stream_reduced_stiffness(mesh, rmat, kz, st)
+    if (.not. is_ok(st)) return
+    allocate (bnd(nz), kind(nz), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced stream function', 2_i8 * nz, BYTES_REAL)) return
     kind = BOUND_FREE
     bnd = 0.0_dp
     kz%val(kz%diag) = kz%val(kz%diag) * (1.0_dp + constant_shift)
-    if (settings%smooth_sweeps > 0 .and. settings%est_tol > 0.0_dp .and. any(z /= 0.0_dp)) then
-      call smooth_first(kz, fz, settings%smooth_sweeps, settings%est_tol / est_excess, z, res, last_ok)
-      if (last_ok) then
-        call rect_matvec(rmat, z, psi)
-        return
-      end if
-    end if
     res%hierarchy = .true.
     res%geometric = .false.
     if (present(mg)) then
@@ -356,32 +361,40 @@ contains
     call rect_matvec(rmat, z, psi)
   end subroutine solve_with_active
 
-  !> Gauss-Seidel sweeps (forward, backward, ...) on kz z = fz from a close start (the
-  !> previous level's psi), without a hierarchy: they remove the error's oscillating part,
-  !> which is most of what a prolongated start leaves (its smooth part is of higher order,
-  !> theory.md, "The last level of a uniform run").  done: the part of J the sweeps could
-  !> still remove, predicted from the last two sweeps' decreases dj as a geometric series
-  !> (dj q / (1 - q), q their ratio; after the first sweep dj itself), is at most
-  !> sweep_tol_fraction energy_tol (J's units), within max_sweeps; otherwise (also as soon as
-  !> the remaining sweeps would not get there at the ratio measured, or a sweep stops
-  !> contracting) the caller goes on with multigrid from the swept z (the sweeps are not
-  !> lost).  res%est_gap: the prediction.
-  subroutine smooth_first(kz, fz, max_sweeps, energy_tol, z, res, done)
-    type(csr_t), intent(in) :: kz
+  !> Gauss-Seidel sweeps (forward, backward, ...) on R^T K R z = fz (with constant_shift)
+  !> from a close start psi = R z (the previous level's psi), matrix-free and without a
+  !> hierarchy (dualsig_dual_p2_sweeps): they remove the error's oscillating part, which is
+  !> most of what a prolongated start leaves (its smooth part is of higher order; theory.md,
+  !> "Inexact solves ... the algebraic share").  done: the part of J the sweeps could still
+  !> remove, predicted from the last two sweeps' decreases dj as a geometric series (dj q /
+  !> (1 - q), q their ratio; after the first sweep dj itself), is at most sweep_tol_fraction
+  !> energy_tol (J's units), within max_sweeps; otherwise (also as soon as the remaining
+  !> sweeps would not get there at the ratio measured, or a sweep stops contracting) the
+  !> caller goes on with multigrid from the swept psi (the sweeps are not lost).
+  !> res%est_gap: the prediction.  st: DS_ERR_MEMORY.
+  subroutine smooth_first(mesh, rmat, node_of_z, fz, max_sweeps, energy_tol, psi, res, done, st)
+    type(mesh_t), intent(in) :: mesh
+    type(rect_t), intent(in) :: rmat
+    integer, intent(in) :: node_of_z(:)
     real(dp), intent(in) :: fz(:)
     integer, intent(in) :: max_sweeps
     real(dp), intent(in) :: energy_tol
-    real(dp), intent(inout) :: z(:)
+    real(dp), intent(inout) :: psi(:)
     type(stream_result_t), intent(inout) :: res
     logical, intent(out) :: done
+    type(status_t), intent(inout) :: st
+    type(p2_sweeper_t) :: sw
     real(dp) :: dj, dj_prev, left, q, target
     integer :: k
     done = .false.
+    call p2_sweeper_build(mesh, rmat, node_of_z, sw, st)
+    if (.not. is_ok(st)) return
     target = sweep_tol_fraction * energy_tol
+    left = huge(1.0_dp)
     dj = 0.0_dp
     do k = 1, max_sweeps
       dj_prev = dj
-      call csr_gauss_seidel(kz, fz, z, mod(k, 2) == 1, dj)
+      call p2_sweep(mesh, sw, fz, constant_shift, psi, mod(k, 2) == 1, dj)
       res%sweeps = res%sweeps + 1
       q = 0.0_dp
       if (k == 1 .or. .not. dj > 0.0_dp) then
@@ -390,8 +403,7 @@ contains
         q = dj / dj_prev
         left = dj * q / (1.0_dp - q)
       else
-        left = huge(1.0_dp)                 ! no contraction measured
-        exit
+        exit                                ! no contraction measured
       end if
       done = left <= target
       if (done) exit
@@ -809,49 +821,6 @@ contains
       call csr_add_block(k, cl(:, t), ke)
     end do
   end subroutine stream_stiffness
-
-  !> The P2 values of triangle t: its vertices, then the midpoints of its edges (edge i from
-  !> vertex i to vertex i + 1).
-  pure function p2_dofs(mesh, t) result(cl)
-    type(mesh_t), intent(in) :: mesh
-    integer, intent(in) :: t
-    integer :: cl(6)
-    cl(1:3) = mesh%tri(:, t)
-    cl(4:6) = mesh%nnode + mesh%tri_edge(:, t)
-  end function p2_dofs
-
-  !> The P2 element stiffness matrix of the triangle xy (local order of p2_dofs; the
-  !> edge-midpoint rule is exact for the quadratic integrands).
-  pure subroutine p2_element_stiffness(xy, ke)
-    real(dp), intent(in) :: xy(2, 3)
-    real(dp), intent(out) :: ke(6, 6)
-    real(dp), parameter :: lam(3, 3) = reshape([0.5_dp, 0.5_dp, 0.0_dp, 0.0_dp, 0.5_dp, 0.5_dp, 0.5_dp, 0.0_dp, &
-                                                0.5_dp], [3, 3])   ! barycentrics of the edge midpoints
-    real(dp) :: gl(2, 3), area, gr(2, 6, 3)
-    integer :: q, i, j
-    area = 0.5_dp * ((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
-    do i = 1, 3
-      j = mod(i, 3) + 1
-      q = mod(j, 3) + 1
-      gl(:, i) = [xy(2, j) - xy(2, q), xy(1, q) - xy(1, j)] / (2 * area)
-    end do
-    ! P2 basis: vertex i lambda_i (2 lambda_i - 1), edge i (vertices i, i+1) 4 lambda_i lambda_(i+1)
-    do q = 1, 3
-      do i = 1, 3
-        j = mod(i, 3) + 1
-        gr(:, i, q) = (4 * lam(i, q) - 1) * gl(:, i)
-        gr(:, 3 + i, q) = 4 * (lam(j, q) * gl(:, i) + lam(i, q) * gl(:, j))
-      end do
-    end do
-    ke = 0.0_dp
-    do q = 1, 3
-      do j = 1, 6
-        do i = 1, 6
-          ke(i, j) = ke(i, j) + area / 3 * dot_product(gr(:, i, q), gr(:, j, q))
-        end do
-      end do
-    end do
-  end subroutine p2_element_stiffness
 
   !> kpsi = K psi (stream_stiffness), element by element.
   pure subroutine stream_apply_stiffness(mesh, psi, kpsi)
