@@ -25,7 +25,8 @@ module dualsig_dual_p2_field
   implicit none
   private
 
-  public :: dual_p2_field_t, dual_p2_lambda, dual_p2_lambda_points, bubble_coefficients, bubble_value
+  public :: dual_p2_field_t, dual_p2_lambda, dual_p2_lambda_points, bubble_coefficients, bubble_value, &
+            bubble_load_moments
 
   type :: dual_p2_field_t
     logical :: polynomial = .false.         !! lambda^f is beta_f (else pf)
@@ -124,4 +125,26 @@ contains
       v = v + c(i) * bary(j) * bary(k) * (xy(:, k) - xy(:, j))
     end do
   end function bubble_value
+
+  !> The moments v(2a-1:2a) = int_T sigma lambda_a of the bubble sigma (bubble_value) against
+  !> the P1 basis, in closed form: sigma lambda_a is a cubic in the barycentric coordinates,
+  !> and int_T lambda_1^p lambda_2^q lambda_3^r = 2 |T| p! q! r! / (p + q + r + 2)!, so
+  !> int lambda_j lambda_k lambda_a = |T| / 60 for three different indices and |T| / 30 when
+  !> a is j or k.  (These are the vectors of equilibrium_element_load for lam = sigma.)
+  pure function bubble_load_moments(xy, c) result(v)
+    real(dp), intent(in) :: xy(2, 3), c(3)
+    real(dp) :: v(6)
+    real(dp) :: area, m
+    integer :: i, j, k, a
+    area = 0.5_dp * abs((xy(1, 2) - xy(1, 1)) * (xy(2, 3) - xy(2, 1)) - (xy(1, 3) - xy(1, 1)) * (xy(2, 2) - xy(2, 1)))
+    v = 0.0_dp
+    do i = 1, 3
+      j = mod(i, 3) + 1
+      k = mod(i + 1, 3) + 1
+      do a = 1, 3
+        m = merge(area / 60.0_dp, area / 30.0_dp, a == i)
+        v(2 * a - 1:2 * a) = v(2 * a - 1:2 * a) + c(i) * m * (xy(:, k) - xy(:, j))
+      end do
+    end do
+  end function bubble_load_moments
 end module dualsig_dual_p2_field

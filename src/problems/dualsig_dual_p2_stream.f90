@@ -284,7 +284,7 @@ contains
     integer :: nz, i, ist, max_iter_default
 
     last_ok = .false.
-    call stream_reduced_basis(mesh, rows, active, rmat, pz, node_of_z, st)
+    call stream_reduced_basis(mesh, rows, active, rmat, node_of_z=node_of_z, st=st)
     if (.not. is_ok(st)) return
     nz = rmat%n
     allocate (fz(nz), z(nz), stat=ist)
@@ -299,6 +299,8 @@ contains
       if (.not. is_ok(st) .or. last_ok) return
       z = psi(node_of_z)                    ! the V-cycles go on from the swept psi
     end if
+    call stream_p1_prolongation(mesh, node_of_z, pz, st)
+    if (.not. is_ok(st)) return
     call stream_reduced_stiffness(mesh, rmat, kz, st)
     if (.not. is_ok(st)) return
     allocate (bnd(nz), kind(nz), stat=ist)
@@ -928,12 +930,13 @@ contains
     type(mesh_t), intent(in) :: mesh
     type(stream_gamma_rows_t), intent(in) :: rows
     logical, intent(in) :: active(:,:)
-    type(rect_t), intent(out) :: rmat, pz
+    type(rect_t), intent(out) :: rmat
+    type(rect_t), intent(out), optional :: pz   !! (stream_p1_prolongation: built when needed)
     integer, allocatable, intent(out) :: node_of_z(:)
     type(status_t), intent(inout) :: st
     integer, allocatable :: rep(:), zof(:), ri(:), ci(:)
     real(dp), allocatable :: v(:)
-    integer :: n2, k, i, nz, nt, e, ist
+    integer :: n2, k, i, nz, nt, ist
     n2 = mesh%nnode + mesh%nedge
     allocate (rep(mesh%nnode), zof(n2), ri(2 * n2), ci(2 * n2), v(2 * n2), stat=ist)   ! at most two entries a row
     if (alloc_failed(ist, st, 'the reduced basis', 5_i8 * n2, BYTES_INT)) return
@@ -980,6 +983,33 @@ contains
     end do
     call rect_from_triplets(n2, nz, ri(1:nt), ci(1:nt), v(1:nt), rmat, st)
     if (.not. is_ok(st)) return
+    deallocate (rep, zof, ri, ci, v)
+    if (present(pz)) call stream_p1_prolongation(mesh, node_of_z, pz, st)
+  contains
+    subroutine add(row, col, val)
+      integer, intent(in) :: row, col
+      real(dp), intent(in) :: val
+      nt = nt + 1
+      ri(nt) = row
+      ci(nt) = col
+      v(nt) = val
+    end subroutine add
+  end subroutine stream_reduced_basis
+
+  !> pz (nz x nnode): the unknowns z from the P1 values of the mesh, a vertex unknown its
+  !> vertex's value, a midpoint the mean of its edge's ends (node_of_z of
+  !> stream_reduced_basis).  st: DS_ERR_MEMORY.
+  subroutine stream_p1_prolongation(mesh, node_of_z, pz, st)
+    type(mesh_t), intent(in) :: mesh
+    integer, intent(in) :: node_of_z(:)
+    type(rect_t), intent(out) :: pz
+    type(status_t), intent(inout) :: st
+    integer, allocatable :: ri(:), ci(:)
+    real(dp), allocatable :: v(:)
+    integer :: k, i, e, nt, nz, ist
+    nz = size(node_of_z)
+    allocate (ri(2 * nz), ci(2 * nz), v(2 * nz), stat=ist)     ! at most two entries a row
+    if (alloc_failed(ist, st, 'the prolongation of the stream function', 6_i8 * nz, BYTES_INT)) return
     nt = 0
     do k = 1, nz
       i = node_of_z(k)
@@ -1001,7 +1031,7 @@ contains
       ci(nt) = col
       v(nt) = val
     end subroutine add
-  end subroutine stream_reduced_basis
+  end subroutine stream_p1_prolongation
 
   !> Union of the sets of i and j (rep: parent links, roots point to themselves).
   pure subroutine merge_sets(rep, i, j)

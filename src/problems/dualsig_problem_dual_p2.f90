@@ -38,7 +38,8 @@ module dualsig_problem_dual_p2
   use dualsig_qp_types, only: BOUND_FREE, BOUND_LOWER
   use dualsig_solver_uzawa, only: uzawa_settings_t, uzawa_result_t, uzawa_solve
   use dualsig_solver_augmented, only: augmented_settings_t, augmented_result_t, augmented_solve
-  use dualsig_elements_equilibrium, only: equilibrium_element_load, equilibrium_c_of, equilibrium_element_matrix
+  use dualsig_elements_equilibrium, only: equilibrium_element_load, equilibrium_c_of
+  use dualsig_elements_p1, only: p1_element_mass
   use dualsig_assembly_equilibrium, only: equilibrium_map_t, equilibrium_map, equilibrium_elements, equilibrium_div_coefficients, &
                                           assemble_equilibrium_global, equilibrium_to_global, &
                                           equilibrium_to_local, equilibrium_div_rows_global, &
@@ -46,7 +47,7 @@ module dualsig_problem_dual_p2
   use dualsig_particular_field, only: particular_field_t, particular_field_build, lambda_f_at
   use dualsig_equilibrium_correction, only: equilibrate_divergence
   use dualsig_load_data, only: load_data_t, load_data_build
-  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_coefficients, bubble_value
+  use dualsig_dual_p2_field, only: dual_p2_field_t, dual_p2_lambda, bubble_coefficients, bubble_load_moments
   use dualsig_status, only: status_t, set_error, is_ok, DS_ERR_INPUT
   use dualsig_solver_multigrid, only: mg_hierarchy_t
   use dualsig_dual_p2_stream, only: stream_settings_t, stream_result_t, stream_dual_solve
@@ -63,8 +64,6 @@ module dualsig_problem_dual_p2
   !> the loads only affect how close q^h is to the exact discrete minimiser, never the
   !> admissibility of lambda^h (any q^h of K_h gives an admissible lambda^h).
   integer, parameter :: load_degree = 5
-  !> Degree of the rule for the loads of the bubbles (cubic integrands: exact).
-  integer, parameter :: bubble_load_degree = 3
 
   type :: dual_p2_settings_t
     character(len=16) :: method = 'augmented'  !! 'augmented' or 'uzawa'
@@ -194,7 +193,12 @@ contains
     res%seconds_elements = lap(t0)
     select case (trim(settings%particular))
     case ('polynomial')
-      call particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load, flux_f)
+      if (trim(settings%method) == 'multigrid') then   ! the loads summed at once (stream_method)
+        call particular_polynomial(mesh, f, map, d, is_gamma_a, field, st=st, breaks=breaks, load=load, &
+                                   flux_f=flux_f, bx=bx)
+      else
+        call particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load, flux_f)
+      end if
       if (.not. is_ok(st)) return
       res%seconds_particular = lap(t0)
       allocate (gh(2, mesh%nbedge), stat=ist)
@@ -256,7 +260,7 @@ contains
       res%nactive = ares%nactive
       res%residual = ares%kkt_residual
     case ('multigrid')
-      call stream_method(mesh, map, d, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
+      call stream_method(mesh, map, d, bx, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
       if (.not. is_ok(st)) return
       call equilibrium_gamma_a_dofs(mesh, is_gamma_a, gh, on_gamma_a, bnd, st_eq)   ! (st: the solve's warning)
       if (.not. is_ok(st_eq)) then
@@ -314,14 +318,14 @@ contains
   !> method 'multigrid': the dual by its stream function (dualsig_dual_p2_stream), for the
   !> polynomial lambda^f (zero flux on Gamma_a); x: the edge-end fluxes.  The per-triangle
   !> arrays the stream function does not need are not held while it runs (its solve is the
-  !> peak of an adaptive step's memory): the element loads be are freed once summed into
-  !> the edge loads, the map and the divergence rows d are freed and rebuilt after the
-  !> solve (O(ntri), a few per cent of its time).
-  subroutine stream_method(mesh, map, d, be, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
+  !> peak of an adaptive step's memory): the element loads are summed into the edge loads bx
+  !> as they are formed (particular_polynomial), the map and the divergence rows d are freed
+  !> and rebuilt after the solve (O(ntri), a few per cent of its time).
+  subroutine stream_method(mesh, map, d, bx, is_gamma_a, settings, x, res, st, u_primal, mg, psi, active_set)
     type(mesh_t), intent(in) :: mesh
     type(equilibrium_map_t), intent(inout) :: map
     real(dp), allocatable, intent(inout) :: d(:,:)
-    real(dp), allocatable, intent(inout) :: be(:,:)
+    real(dp), allocatable, intent(inout) :: bx(:)   !! the edge loads (particular_polynomial); freed
     logical, intent(in) :: is_gamma_a(:)
     type(dual_p2_settings_t), intent(in) :: settings
     real(dp), intent(out) :: x(:)
@@ -334,17 +338,12 @@ contains
     type(stream_settings_t) :: sset
     type(stream_result_t) :: sres
     type(status_t) :: st_rebuild
-    real(dp), allocatable :: bx(:)
-    integer :: ist
     if (trim(settings%particular) /= 'polynomial') then
       call set_error(st, DS_ERR_INPUT, 'dual P2: method multigrid needs &dual particular = ''polynomial'' (a ' // &
         'particular field without flux on Gamma_a), not ''' // trim(settings%particular) // '''')
       return
     end if
-    allocate (bx(2 * mesh%nedge), stat=ist)
-    if (alloc_failed(ist, st, 'the equilibrium load', 2 * mesh%nedge, BYTES_REAL)) return
-    call equilibrium_to_global(map, be, bx)
-    deallocate (be, d, map%dof, map%sgn)
+    deallocate (d, map%dof, map%sgn)
     sset%est_tol = settings%est_tol
     sset%smooth_sweeps = settings%smooth_sweeps
     call stream_dual_solve(mesh, bx, is_gamma_a, x, sset, sres, st, mg, u_primal, psi, active_set)
@@ -375,38 +374,50 @@ contains
   !> (dualsig_equilibrium_correction: O(ntri), exact to rounding), plus the bubbles with
   !> div = -g_T . (x - x_T); and the element loads b_e = -A_e beta_f - C_e^T int sigma . Phi
   !> of (4.7), exact ((lambda^f, q) = beta_f^T A_e beta for fields of the same element; the
-  !> bubble part is a cubic, integrated by the degree-5 rule).
+  !> bubble part is a cubic, its moments in closed form, bubble_load_moments).
   !> flux_f (optional): on entry, when of size 2 nedge, the fluxes the equilibration starts
   !> from instead of zero (any start gives an admissible lambda^f; a start close to the last
   !> level's lambda^f keeps the new one close to it); on return the fluxes of this
-  !> lambda^f.
-  subroutine particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load, flux_f)
+  !> lambda^f.  The loads: per triangle in be(6, ntri), or (bx) summed at once into the
+  !> global edge-end unknowns (equilibrium_to_global), without the per-triangle array.
+  subroutine particular_polynomial(mesh, f, map, d, is_gamma_a, field, be, st, breaks, load, flux_f, bx)
     type(mesh_t), intent(in) :: mesh
     class(field_t), intent(in) :: f
     type(equilibrium_map_t), intent(in) :: map
     real(dp), intent(in) :: d(:,:)
     logical, intent(in) :: is_gamma_a(:)
     type(dual_p2_field_t), intent(inout) :: field
-    real(dp), allocatable, intent(out) :: be(:,:)
+    real(dp), allocatable, intent(out), optional :: be(:,:)
     type(status_t), intent(out) :: st
     real(dp), intent(in), optional :: breaks(:)
     type(load_data_t), intent(in), optional :: load
     real(dp), allocatable, intent(inout), optional :: flux_f(:)
+    real(dp), allocatable, intent(out), optional :: bx(:)
     type(load_data_t) :: own
-    real(dp), allocatable :: xf(:), target(:), slope(:,:), lam(:,:)
-    real(dp) :: xy(2, 3), c(6, 6), ae(6, 6)
-    type(tri_rule_t) :: rule
-    type(tri_points_t) :: tp
-    integer :: t, k, ist
     if (present(load)) then
-      target = -load%mean * triangle_areas(mesh)
-      slope = load%slope
+      call particular_of_load(mesh, map, d, is_gamma_a, load, field, st, flux_f, be, bx)
     else
       call load_data_build(mesh, f, own, st, breaks)
       if (.not. is_ok(st)) return
-      target = -own%mean * triangle_areas(mesh)
-      slope = own%slope
+      call particular_of_load(mesh, map, d, is_gamma_a, own, field, st, flux_f, be, bx)
     end if
+  end subroutine particular_polynomial
+
+  !> particular_polynomial with its load data.
+  subroutine particular_of_load(mesh, map, d, is_gamma_a, load, field, st, flux_f, be, bx)
+    type(mesh_t), intent(in) :: mesh
+    type(equilibrium_map_t), intent(in) :: map
+    real(dp), intent(in) :: d(:,:)
+    logical, intent(in) :: is_gamma_a(:)
+    type(load_data_t), intent(in) :: load
+    type(dual_p2_field_t), intent(inout) :: field
+    type(status_t), intent(inout) :: st
+    real(dp), allocatable, intent(inout), optional :: flux_f(:)
+    real(dp), allocatable, intent(out), optional :: be(:,:)
+    real(dp), allocatable, intent(out), optional :: bx(:)
+    real(dp), allocatable :: xf(:)
+    real(dp) :: xy(2, 3), c(6, 6), me(3, 3), w(6), v(6), bt(6)
+    integer :: t, k, ist
     allocate (xf(2 * mesh%nedge), stat=ist)
     if (alloc_failed(ist, st, 'the particular fluxes', 2 * mesh%nedge, BYTES_REAL)) return
     xf = 0.0_dp
@@ -415,29 +426,44 @@ contains
         if (size(flux_f) == size(xf)) xf = flux_f
       end if
     end if
-    call equilibrate_divergence(mesh, map, d, is_gamma_a, xf, st, target)
+    call equilibrate_divergence(mesh, map, d, is_gamma_a, xf, st, -load%mean * triangle_areas(mesh))
     if (.not. is_ok(st)) return
     field%polynomial = .true.
-    allocate (field%beta_f(6, mesh%ntri), field%bubble(3, mesh%ntri), be(6, mesh%ntri), stat=ist)
-    if (alloc_failed(ist, st, 'the particular field', 15 * mesh%ntri, BYTES_REAL)) return
+    allocate (field%beta_f(6, mesh%ntri), field%bubble(3, mesh%ntri), stat=ist)
+    if (alloc_failed(ist, st, 'the particular field', 9 * mesh%ntri, BYTES_REAL)) return
     call equilibrium_to_local(map, xf, field%beta_f)
     if (present(flux_f)) call move_alloc(xf, flux_f)
-    rule = tri_rule(bubble_load_degree)
+    if (allocated(xf)) deallocate (xf)
+    if (present(bx)) then
+      allocate (bx(2 * mesh%nedge), stat=ist)
+      if (alloc_failed(ist, st, 'the equilibrium load', 2 * mesh%nedge, BYTES_REAL)) return
+      bx = 0.0_dp
+    else if (present(be)) then
+      allocate (be(6, mesh%ntri), stat=ist)
+      if (alloc_failed(ist, st, 'the element loads', 6 * mesh%ntri, BYTES_REAL)) return
+    end if
     do t = 1, mesh%ntri
       xy = mesh%xy(:, mesh%tri(:, t))
-      field%bubble(:, t) = bubble_coefficients(xy, slope(:, t))
-      call tri_points_set(xy, rule, tp, [real(dp) ::])
-      if (allocated(lam)) deallocate (lam)
-      allocate (lam(2, tp%n))                      ! small: the points of one triangle
-      do k = 1, tp%n
-        lam(:, k) = bubble_value(xy, field%bubble(:, t), tp%bary(:, k))
-      end do
+      field%bubble(:, t) = bubble_coefficients(xy, load%slope(:, t))
+      ! b_e = -C_e^T (int sigma . Phi + kron(M_e, I_2) C_e beta_f): the bubble's moments in
+      ! closed form, and A_e beta_f = C_e^T kron(M_e, I_2) C_e beta_f without forming A_e
       c = equilibrium_c_of(xy)
-      call equilibrium_element_matrix(xy, c, ae)
-      call equilibrium_element_load(c, tp, lam, be(:, t))
-      be(:, t) = be(:, t) - matmul(ae, field%beta_f(:, t))
+      call p1_element_mass(xy, me)
+      w = matmul(c, field%beta_f(:, t))            ! lambda^f's linear part at the vertices
+      v = bubble_load_moments(xy, field%bubble(:, t))
+      do k = 1, 3
+        v(2 * k - 1:2 * k) = v(2 * k - 1:2 * k) + me(k, 1) * w(1:2) + me(k, 2) * w(3:4) + me(k, 3) * w(5:6)
+      end do
+      bt = -matmul(transpose(c), v)
+      if (present(bx)) then
+        do k = 1, 6
+          bx(map%dof(k, t)) = bx(map%dof(k, t)) + map%sgn(k, t) * bt(k)
+        end do
+      else if (present(be)) then
+        be(:, t) = bt
+      end if
     end do
-  end subroutine particular_polynomial
+  end subroutine particular_of_load
 
   !> |T| of every triangle.
   function triangle_areas(mesh) result(a)
