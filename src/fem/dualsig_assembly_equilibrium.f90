@@ -14,6 +14,7 @@
 !>   divergence row per triangle) and simple bounds x >= g_h on the Gamma_a unknowns
 !>   (on a boundary edge n_e is the outward normal).
 module dualsig_assembly_equilibrium
+  use, intrinsic :: iso_fortran_env, only: int8
   use dualsig_kinds, only: dp, i8
   use dualsig_mesh, only: mesh_t
   use dualsig_sparse, only: csr_t, rect_t, csr_pattern_from_cliques, csr_add_block, rect_from_triplets
@@ -35,7 +36,9 @@ module dualsig_assembly_equilibrium
     integer :: ntri = 0
     integer :: nedge = 0
     integer, allocatable :: dof(:,:)     !! (6, ntri) global unknown of local parameter k
-    real(dp), allocatable :: sgn(:,:)    !! (6, ntri) beta_k = sgn * x(dof)
+    !> (6, ntri) beta_k = sgn * x(dof), +1 or -1 (one byte each: the map is held beside
+    !> the per-triangle fields of a 10^6-triangle mesh)
+    integer(int8), allocatable :: sgn(:,:)
   end type equilibrium_map_t
 
 contains
@@ -50,14 +53,14 @@ contains
     map%ntri = mesh%ntri
     map%nedge = mesh%nedge
     allocate (map%dof(6, mesh%ntri), map%sgn(6, mesh%ntri), stat=ist)
-    if (alloc_failed(ist, st, 'the equilibrium element map', 18_i8 * mesh%ntri, BYTES_INT)) return
+    if (alloc_failed(ist, st, 'the equilibrium element map', 8_i8 * mesh%ntri, BYTES_INT)) return
     do t = 1, mesh%ntri
       do k = 1, 6
         e = mesh%tri_edge(param_side(k), t)
         node = mesh%tri(param_vertex(k), t)
         jend = merge(1, 2, node == mesh%edge_nodes(1, e))
         map%dof(k, t) = 2 * (e - 1) + jend
-        map%sgn(k, t) = merge(1.0_dp, -1.0_dp, mesh%edge_tri(1, e) == t)
+        map%sgn(k, t) = merge(1_int8, -1_int8, mesh%edge_tri(1, e) == t)
       end do
     end do
   end subroutine equilibrium_map
