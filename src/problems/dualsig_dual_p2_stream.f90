@@ -118,6 +118,13 @@ module dualsig_dual_p2_stream
   !> free, or not known (rows off Gamma_a, rows at a new vertex whose edge was half active).
   integer, parameter :: SET_ACTIVE = 1, SET_FREE = 0, SET_UNKNOWN = -1
 
+  !> Entries (r, c, v) of a sparse matrix being built, n of them so far (triplet_add).
+  type :: triplets_t
+    integer :: n = 0
+    integer, allocatable :: r(:), c(:)
+    real(dp), allocatable :: v(:)
+  end type triplets_t
+
   type :: stream_settings_t
     real(dp) :: tol = 1.0e-8_dp      !! relative residual of each linear multigrid solve
     integer :: max_steps = 30        !! active-set steps
@@ -945,11 +952,11 @@ contains
     type(rect_t), intent(out), optional :: pz   !! (stream_p1_prolongation: built when needed)
     integer, allocatable, intent(out) :: node_of_z(:)
     type(status_t), intent(inout) :: st
-    integer, allocatable :: rep(:), zof(:), ri(:), ci(:)
-    real(dp), allocatable :: v(:)
-    integer :: n2, k, i, nz, nt, ist
+    integer, allocatable :: rep(:), zof(:)
+    type(triplets_t) :: tr
+    integer :: n2, k, i, nz, ist
     n2 = mesh%nnode + mesh%nedge
-    allocate (rep(mesh%nnode), zof(n2), ri(2 * n2), ci(2 * n2), v(2 * n2), stat=ist)   ! at most two entries a row
+    allocate (rep(mesh%nnode), zof(n2), tr%r(2 * n2), tr%c(2 * n2), tr%v(2 * n2), stat=ist)   ! at most two a row
     if (alloc_failed(ist, st, 'the reduced basis', 5_i8 * n2, BYTES_INT)) return
     rep = [(i, i = 1, mesh%nnode)]
     do k = 1, rows%n                       ! both rows active: a and b carry one value
@@ -973,38 +980,28 @@ contains
     end do
     allocate (node_of_z(nz), stat=ist)
     if (alloc_failed(ist, st, 'the reduced basis', int(nz, i8), BYTES_INT)) return
-    nt = 0
     do i = 1, n2
       if (zof(i) > 0) node_of_z(zof(i)) = i
-      if (i <= mesh%nnode) call add(i, zof(rep(i)), 1.0_dp)
-      if (i > mesh%nnode .and. zof(i) > 0) call add(i, zof(i), 1.0_dp)
+      if (i <= mesh%nnode) call triplet_add(tr, i, zof(rep(i)), 1.0_dp)
+      if (i > mesh%nnode .and. zof(i) > 0) call triplet_add(tr, i, zof(i), 1.0_dp)
     end do
     do k = 1, rows%n
       associate (za => zof(rep(rows%a(k))), zb => zof(rep(rows%b(k))))
         if (all(active(:, k)) .or. (any(active(:, k)) .and. za == zb)) then
-          call add(rows%m(k), za, 1.0_dp)
+          call triplet_add(tr, rows%m(k), za, 1.0_dp)
         else if (active(1, k)) then       ! c_1 = 0: psi_m = (3 psi_a + psi_b) / 4
-          call add(rows%m(k), za, 0.75_dp)
-          call add(rows%m(k), zb, 0.25_dp)
+          call triplet_add(tr, rows%m(k), za, 0.75_dp)
+          call triplet_add(tr, rows%m(k), zb, 0.25_dp)
         else if (active(2, k)) then       ! c_2 = 0: psi_m = (psi_a + 3 psi_b) / 4
-          call add(rows%m(k), za, 0.25_dp)
-          call add(rows%m(k), zb, 0.75_dp)
+          call triplet_add(tr, rows%m(k), za, 0.25_dp)
+          call triplet_add(tr, rows%m(k), zb, 0.75_dp)
         end if
       end associate
     end do
-    call rect_from_triplets(n2, nz, ri(1:nt), ci(1:nt), v(1:nt), rmat, st)
+    call rect_from_triplets(n2, nz, tr%r(1:tr%n), tr%c(1:tr%n), tr%v(1:tr%n), rmat, st)
     if (.not. is_ok(st)) return
-    deallocate (rep, zof, ri, ci, v)
+    deallocate (rep, zof, tr%r, tr%c, tr%v)
     if (present(pz)) call stream_p1_prolongation(mesh, node_of_z, pz, st)
-  contains
-    subroutine add(row, col, val)
-      integer, intent(in) :: row, col
-      real(dp), intent(in) :: val
-      nt = nt + 1
-      ri(nt) = row
-      ci(nt) = col
-      v(nt) = val
-    end subroutine add
   end subroutine stream_reduced_basis
 
   !> pz (nz x nnode): the unknowns z from the P1 values of the mesh, a vertex unknown its
@@ -1015,34 +1012,34 @@ contains
     integer, intent(in) :: node_of_z(:)
     type(rect_t), intent(out) :: pz
     type(status_t), intent(inout) :: st
-    integer, allocatable :: ri(:), ci(:)
-    real(dp), allocatable :: v(:)
-    integer :: k, i, e, nt, nz, ist
+    type(triplets_t) :: tr
+    integer :: k, i, e, nz, ist
     nz = size(node_of_z)
-    allocate (ri(2 * nz), ci(2 * nz), v(2 * nz), stat=ist)     ! at most two entries a row
+    allocate (tr%r(2 * nz), tr%c(2 * nz), tr%v(2 * nz), stat=ist)     ! at most two entries a row
     if (alloc_failed(ist, st, 'the prolongation of the stream function', 6_i8 * nz, BYTES_INT)) return
-    nt = 0
     do k = 1, nz
       i = node_of_z(k)
       if (i <= mesh%nnode) then
-        call add(k, i, 1.0_dp)
+        call triplet_add(tr, k, i, 1.0_dp)
       else
         e = i - mesh%nnode
-        call add(k, mesh%edge_nodes(1, e), 0.5_dp)
-        call add(k, mesh%edge_nodes(2, e), 0.5_dp)
+        call triplet_add(tr, k, mesh%edge_nodes(1, e), 0.5_dp)
+        call triplet_add(tr, k, mesh%edge_nodes(2, e), 0.5_dp)
       end if
     end do
-    call rect_from_triplets(nz, mesh%nnode, ri(1:nt), ci(1:nt), v(1:nt), pz, st)
-  contains
-    subroutine add(row, col, val)
-      integer, intent(in) :: row, col
-      real(dp), intent(in) :: val
-      nt = nt + 1
-      ri(nt) = row
-      ci(nt) = col
-      v(nt) = val
-    end subroutine add
+    call rect_from_triplets(nz, mesh%nnode, tr%r(1:tr%n), tr%c(1:tr%n), tr%v(1:tr%n), pz, st)
   end subroutine stream_p1_prolongation
+
+  !> Appends the entry (row, col, val) to the triplet list tr (its arrays large enough).
+  pure subroutine triplet_add(tr, row, col, val)
+    type(triplets_t), intent(inout) :: tr
+    integer, intent(in) :: row, col
+    real(dp), intent(in) :: val
+    tr%n = tr%n + 1
+    tr%r(tr%n) = row
+    tr%c(tr%n) = col
+    tr%v(tr%n) = val
+  end subroutine triplet_add
 
   !> Union of the sets of i and j (rep: parent links, roots point to themselves).
   pure subroutine merge_sets(rep, i, j)
