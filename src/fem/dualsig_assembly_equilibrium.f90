@@ -20,7 +20,7 @@ module dualsig_assembly_equilibrium
   use dualsig_sparse, only: csr_t, rect_t, csr_pattern_from_cliques, csr_add_block, rect_from_triplets
   use dualsig_elements_equilibrium, only: param_side, param_vertex, equilibrium_c_matrix, &
                                           equilibrium_element_matrix, equilibrium_div_row, &
-                                          equilibrium_field_xy, equilibrium_sides
+                                          equilibrium_field_xy, equilibrium_sides, equilibrium_c_of_normals
   use dualsig_qp_types, only: ROW_EQUALITY, ROW_INEQUALITY
   use dualsig_status, only: status_t, set_error, DS_ERR_INPUT
   use dualsig_alloc, only: alloc_failed, has_failed, BYTES_INT, BYTES_REAL
@@ -90,15 +90,15 @@ contains
     type(mesh_t), intent(in) :: mesh
     real(dp), allocatable, intent(out) :: d(:,:)
     type(status_t), intent(out) :: st
-    real(dp) :: xy(2, 3), c(6, 6)
+    real(dp) :: c(6, 6), nu(2, 3), l(3)
     integer :: t, ist
     allocate (d(6, mesh%ntri), stat=ist)
     if (alloc_failed(ist, st, 'the divergence rows', 6_i8 * mesh%ntri, BYTES_REAL)) return
     do t = 1, mesh%ntri
-      xy = mesh%xy(:, mesh%tri(:, t))
-      call equilibrium_c_matrix(xy, c, st)
+      call equilibrium_sides(mesh%xy(:, mesh%tri(:, t)), nu, l)   ! once for the check and the row
+      call equilibrium_c_of_normals(nu, c, st)
       if (st%code /= 0) return
-      call equilibrium_div_row(xy, d(:, t))
+      d(:, t) = 0.5_dp * l(param_side)                            ! (equilibrium_div_row)
     end do
   end subroutine equilibrium_div_coefficients
 

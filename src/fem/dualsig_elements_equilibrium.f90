@@ -29,7 +29,7 @@ module dualsig_elements_equilibrium
 
   public :: param_side, param_vertex, equilibrium_sides, equilibrium_c_matrix, &
             equilibrium_element_matrix, equilibrium_div_row, equilibrium_element_load, &
-            equilibrium_field, equilibrium_c_of, equilibrium_field_xy
+            equilibrium_field, equilibrium_c_of, equilibrium_field_xy, equilibrium_c_of_normals
 
   integer, parameter :: param_side(6) = [3, 1, 1, 2, 2, 3]     !! side of parameter k
   integer, parameter :: param_vertex(6) = [1, 1, 2, 2, 3, 3]   !! vertex of parameter k
@@ -61,9 +61,18 @@ contains
     real(dp), intent(in) :: xy(2, 3)
     real(dp), intent(out) :: c(6, 6)
     type(status_t), intent(out) :: st
-    real(dp) :: nu(2, 3), l(3), n(2, 2), det
-    integer :: v, k1, k2
+    real(dp) :: nu(2, 3), l(3)
     call equilibrium_sides(xy, nu, l)
+    call equilibrium_c_of_normals(nu, c, st)
+  end subroutine equilibrium_c_matrix
+
+  !> equilibrium_c_matrix from the outward unit normals nu of the sides (equilibrium_sides).
+  pure subroutine equilibrium_c_of_normals(nu, c, st)
+    real(dp), intent(in) :: nu(2, 3)
+    real(dp), intent(out) :: c(6, 6)
+    type(status_t), intent(out) :: st
+    real(dp) :: n(2, 2), det
+    integer :: v, k1, k2
     c = 0.0_dp
     do v = 1, 3
       k1 = 2 * v - 1                         ! parameters 2v-1, 2v belong to vertex v
@@ -82,7 +91,7 @@ contains
       c(k2, k1) = -n(2, 1) / det
       c(k2, k2) = n(1, 1) / det
     end do
-  end subroutine equilibrium_c_matrix
+  end subroutine equilibrium_c_of_normals
 
   !> C_e of a triangle known to be non-degenerate (equilibrium_c_matrix has accepted it):
   !> the fields keep their flux parameters only and compute C_e where they are evaluated,

@@ -142,8 +142,7 @@ contains
         ' (assumption (A2): every boundary loop meets Gamma_u)')
       return
     end if
-    do i = 1, mesh%ntri
-      t = order(i)
+    do t = 1, mesh%ntri                        ! (in memory order: any order will do)
       if (edge_divergence_weight(map, d, parent_edge(t), t) == 0.0_dp) then
         call set_error(st, DS_ERR_NUMERIC, 'equilibrate_divergence: triangle ' // itoa(t) // &
           ' has a zero divergence weight on its edge ' // itoa(parent_edge(t)) // ' (degenerate side)')
