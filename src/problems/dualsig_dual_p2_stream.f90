@@ -953,11 +953,10 @@ contains
     integer, allocatable, intent(out) :: node_of_z(:)
     type(status_t), intent(inout) :: st
     integer, allocatable :: rep(:), zof(:)
-    type(triplets_t) :: tr
-    integer :: n2, k, i, nz, ist
+    integer :: n2, k, i, nz, q, ist
     n2 = mesh%nnode + mesh%nedge
-    allocate (rep(mesh%nnode), zof(n2), tr%r(2 * n2), tr%c(2 * n2), tr%v(2 * n2), stat=ist)   ! at most two a row
-    if (alloc_failed(ist, st, 'the reduced basis', 5_i8 * n2, BYTES_INT)) return
+    allocate (rep(mesh%nnode), zof(n2), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced basis', int(mesh%nnode, i8) + n2, BYTES_INT)) return
     rep = [(i, i = 1, mesh%nnode)]
     do k = 1, rows%n                       ! both rows active: a and b carry one value
       if (all(active(:, k))) call merge_sets(rep, rows%a(k), rows%b(k))
@@ -978,30 +977,61 @@ contains
       nz = nz + 1
       zof(i) = nz
     end do
-    allocate (node_of_z(nz), stat=ist)
-    if (alloc_failed(ist, st, 'the reduced basis', int(nz, i8), BYTES_INT)) return
+    allocate (node_of_z(nz), rmat%rowptr(n2 + 1), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced basis', int(nz, i8) + n2 + 1, BYTES_INT)) return
+    ! R row by row: a vertex the unknown of its run's representative, a midpoint its own or,
+    ! on an active Gamma_a edge, one or two of its ends' (the columns of a row sorted)
+    rmat%m = n2
+    rmat%n = nz
+    rmat%rowptr(1) = 1
+    rmat%rowptr(2:) = 1
+    do k = 1, rows%n
+      if (any(active(:, k))) rmat%rowptr(rows%m(k) + 1) = merge(1, 2, one_entry(k))
+    end do
+    do i = 1, n2
+      rmat%rowptr(i + 1) = rmat%rowptr(i + 1) + rmat%rowptr(i)
+    end do
+    allocate (rmat%col(rmat%rowptr(n2 + 1) - 1), rmat%val(rmat%rowptr(n2 + 1) - 1), stat=ist)
+    if (alloc_failed(ist, st, 'the reduced basis', 3_i8 * (rmat%rowptr(n2 + 1) - 1), BYTES_INT)) return
+    rmat%val = 1.0_dp
     do i = 1, n2
       if (zof(i) > 0) node_of_z(zof(i)) = i
-      if (i <= mesh%nnode) call triplet_add(tr, i, zof(rep(i)), 1.0_dp)
-      if (i > mesh%nnode .and. zof(i) > 0) call triplet_add(tr, i, zof(i), 1.0_dp)
+      if (i <= mesh%nnode) rmat%col(rmat%rowptr(i)) = zof(rep(i))
+      if (i > mesh%nnode .and. zof(i) > 0) rmat%col(rmat%rowptr(i)) = zof(i)
     end do
     do k = 1, rows%n
+      if (.not. any(active(:, k))) cycle
+      q = rmat%rowptr(rows%m(k))
       associate (za => zof(rep(rows%a(k))), zb => zof(rep(rows%b(k))))
-        if (all(active(:, k)) .or. (any(active(:, k)) .and. za == zb)) then
-          call triplet_add(tr, rows%m(k), za, 1.0_dp)
+        if (one_entry(k)) then
+          rmat%col(q) = za
         else if (active(1, k)) then       ! c_1 = 0: psi_m = (3 psi_a + psi_b) / 4
-          call triplet_add(tr, rows%m(k), za, 0.75_dp)
-          call triplet_add(tr, rows%m(k), zb, 0.25_dp)
-        else if (active(2, k)) then       ! c_2 = 0: psi_m = (psi_a + 3 psi_b) / 4
-          call triplet_add(tr, rows%m(k), za, 0.25_dp)
-          call triplet_add(tr, rows%m(k), zb, 0.75_dp)
+          call set_pair(q, za, 0.75_dp, zb, 0.25_dp)
+        else                              ! c_2 = 0: psi_m = (psi_a + 3 psi_b) / 4
+          call set_pair(q, za, 0.25_dp, zb, 0.75_dp)
         end if
       end associate
     end do
-    call rect_from_triplets(n2, nz, tr%r(1:tr%n), tr%c(1:tr%n), tr%v(1:tr%n), rmat, st)
-    if (.not. is_ok(st)) return
-    deallocate (rep, zof, tr%r, tr%c, tr%v)
+    deallocate (rep, zof)
     if (present(pz)) call stream_p1_prolongation(mesh, node_of_z, pz, st)
+  contains
+    !> The midpoint row of active Gamma_a edge k has one entry: the edge is one value.
+    logical function one_entry(k)
+      integer, intent(in) :: k
+      one_entry = all(active(:, k)) .or. zof(rep(rows%a(k))) == zof(rep(rows%b(k)))
+    end function one_entry
+    !> Row entries q, q+1: (ca, wa) and (cb, wb), by column.
+    subroutine set_pair(q, ca, wa, cb, wb)
+      integer, intent(in) :: q, ca, cb
+      real(dp), intent(in) :: wa, wb
+      if (ca < cb) then
+        rmat%col(q:q + 1) = [ca, cb]
+        rmat%val(q:q + 1) = [wa, wb]
+      else
+        rmat%col(q:q + 1) = [cb, ca]
+        rmat%val(q:q + 1) = [wb, wa]
+      end if
+    end subroutine set_pair
   end subroutine stream_reduced_basis
 
   !> pz (nz x nnode): the unknowns z from the P1 values of the mesh, a vertex unknown its
