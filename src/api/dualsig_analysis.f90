@@ -84,9 +84,10 @@ module dualsig_analysis
   !> factorisation of the warm-started active set costs about as much as the V-cycles)
   integer, parameter :: mg_auto_min_unknowns = 10000
   !> Gauss-Seidel sweeps the P2 dual's stream function may take on the last level of a uniform
-  !> run before it builds the multigrid (dual_p2_settings_t%smooth_sweeps): 6 reach the
-  !> algebraic share 10^-3 at level 9 of p2_contact; where 10 do not (the share is below
-  !> what the previous level left), the V-cycles go on from the swept psi
+  !> run before it builds the multigrid (dual_p2_settings_t%smooth_sweeps): 8 reach the
+  !> algebraic share 10^-3 at levels 8 and 9 of p2_contact; where they would not (the
+  !> previous level left a smooth error above the share, e.g. at a corner singularity) they
+  !> give up early and the V-cycles go on from the swept psi (dualsig_dual_p2_stream)
   integer, parameter :: p2_last_sweeps = 10
   real(dp), parameter :: lanczos_rel_tol = 1.0e-3_dp
   !> The dual spaces of P1: 'hdiv' (Raviart-Thomas of order 1, div q piecewise linear; the

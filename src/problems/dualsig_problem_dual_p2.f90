@@ -455,7 +455,7 @@ contains
         v(2 * k - 1:2 * k) = v(2 * k - 1:2 * k) + me(k, 1) * w(1:2) + me(k, 2) * w(3:4) + me(k, 3) * w(5:6)
       end do
       bt = -matmul(transpose(c), v)
-      if (present(bx)) then
+      if (present(bx)) then                        ! equilibrium_to_global, one triangle at a time
         do k = 1, 6
           bx(map%dof(k, t)) = bx(map%dof(k, t)) + map%sgn(k, t) * bt(k)
         end do
